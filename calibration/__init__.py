@@ -1,0 +1,1 @@
+"""seamguide calibration: camera intrinsics, hand-eye and the calibration file format."""

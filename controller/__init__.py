@@ -1,0 +1,1 @@
+"""seamguide controller: the weld cycle, the CLI and the guidance maths."""

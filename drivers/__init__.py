@@ -1,0 +1,1 @@
+"""seamguide drivers: everything that touches the outside world (robot link, cameras, simulators)."""
