@@ -83,32 +83,68 @@ def match_curves(xy_ref: F64, xy_other: F64, T_other_ref: F64,
     sin_angle = np.abs(np.einsum("ij,ij->i", lines[rows, :2], seg_unit[segs]))
     angle_all = np.degrees(np.arcsin(np.clip(sin_angle, 0.0, 1.0)))
 
-    t = np.full(n, np.nan)
-    angle = np.zeros(n)
+    t, angle = _resolve_crossings(rows, t_all, angle_all, n)
     counts = np.bincount(rows, minlength=n)
     ambiguous = counts > 1
-    single = counts == 1
-    first = np.searchsorted(rows, np.arange(n))
-    idx_single = first[single]
-    t[single] = t_all[idx_single]
-    angle[single] = angle_all[idx_single]
-    if np.any(ambiguous):
-        known = np.flatnonzero(single & (angle > min_angle_deg))
-        for i in np.flatnonzero(ambiguous):
-            cand = slice(first[i], first[i] + counts[i])
-            if known.size >= 2:
-                pred = float(np.interp(i, known, t[known]))
-            elif known.size == 1:
-                pred = float(t[known[0]])
-            else:
-                pred = float(np.median(t_all[cand]))
-            k = first[i] + int(np.argmin(np.abs(t_all[cand] - pred)))
-            t[i], angle[i] = t_all[k], angle_all[k]
     degenerate = np.isfinite(t) & (angle < min_angle_deg)
     # The curve lying along the line itself (no sign change at all): count near vertices.
     near = (np.abs(f) < along_tol).sum(axis=1)
     degenerate |= near > max(5, len(xy_other) // 20)
     return CurveMatch(t=t, angle_deg=angle, degenerate=degenerate, ambiguous=ambiguous)
+
+
+def _resolve_crossings(rows: NDArray[np.intp], t_all: F64, angle_all: F64, n: int,
+                       window: int = 15) -> tuple[F64, F64]:
+    """One crossing per sample, continuous and monotonic along the other curve.
+
+    Unique crossings are kept; multiple ones are resolved by continuity from resolved neighbours
+    within ``window`` samples, else left unmatched.
+
+    Both curves are ordered along the same seam, so the correspondence must run one way: samples
+    that still step against the dominant direction are dropped (NaN). A seam seen across the
+    baseline gives unique crossings almost everywhere; multiple ones come in pairs near stretches
+    that are tangent to the epipolar lines, which are flagged degenerate anyway.
+    """
+    t = np.full(n, np.nan)
+    angle = np.zeros(n)
+    if rows.size == 0:
+        return t, angle
+    counts = np.bincount(rows, minlength=n)
+    first = np.searchsorted(rows, np.arange(n))
+    single = counts == 1
+    t[single] = t_all[first[single]]
+    angle[single] = angle_all[first[single]]
+    multiple = np.flatnonzero(counts > 1)
+    # Forward, then backward: each resolved sample becomes a neighbour for the next one, so long
+    # ambiguous stretches are followed by continuity from where the crossing was unique.
+    for order in (multiple, multiple[::-1]):
+        step = 1 if order is multiple else -1
+        for i in order:
+            if np.isfinite(t[i]):
+                continue
+            lo, hi = (i - window, i) if step == 1 else (i + 1, i + window + 1)
+            near = np.arange(max(lo, 0), min(hi, n))
+            near = near[np.isfinite(t[near])]
+            near = near[-2:] if step == 1 else near[:2]
+            if near.size == 0:
+                continue
+            if near.size == 2:
+                pred = float(t[near[0]] + (t[near[1]] - t[near[0]]) * (i - near[0])
+                             / (near[1] - near[0]))
+            else:
+                pred = float(t[near[0]])
+            cand = slice(first[i], first[i] + counts[i])
+            k = first[i] + int(np.argmin(np.abs(t_all[cand] - pred)))
+            t[i], angle[i] = t_all[k], angle_all[k]
+    ok = np.flatnonzero(np.isfinite(t))
+    if ok.size > 1:
+        direction = np.sign(np.median(np.diff(t[ok]))) or 1.0
+        # Keep the longest run consistent with the direction: drop samples that go backwards
+        # relative to both their predecessor and the running extreme.
+        running = np.maximum.accumulate(direction * t[ok])
+        backwards = direction * t[ok] < running - 1e-9
+        t[ok[backwards]] = np.nan
+    return t, angle
 
 
 def point_on_polyline(xy: F64, t: F64) -> F64:

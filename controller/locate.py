@@ -83,12 +83,16 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
 
 def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLimits(),
                 spacing_mm: float | None = 2.0, count: int | None = None,
-                sample_px: float = 2.0) -> Seam3D:
+                sample_px: float = 2.0,
+                nominal_region: tuple[F64, float] | None = None) -> Seam3D:
     """Triangulate a seam seen in two or more views; the first view is the reference.
 
     ``spacing_mm`` / ``count`` set the resampling of the output points (see
     :func:`controller.seam_curve.resample_curve`); ``sample_px`` the spacing of the reference
-    curve samples. Raises :class:`TriangulationError` with the failing numbers in ``details``.
+    curve samples; ``nominal_region`` = (centre mm, radius mm) from the job: every seam point must
+    lie inside that sphere (it catches a wrong curve matched consistently, and gross calibration
+    errors that no two-view check can see). Raises :class:`TriangulationError` with the failing
+    numbers in ``details``.
     """
     if len(views) < 2:
         raise InputError(f"locating a seam needs at least two views, got {len(views)}")
@@ -172,6 +176,11 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         "endpoint_gap_mm": endpoint_gaps,
         "length_mm": float(arc_length(dense)[-1]),
     }
+    if nominal_region is not None:
+        centre = np.asarray(nominal_region[0], dtype=np.float64)
+        quality["distance_from_nominal_mm_max"] = float(
+            np.max(np.linalg.norm(dense - centre, axis=1)))
+        quality["nominal_radius_mm"] = float(nominal_region[1])
     _judge(quality, limits, degenerate_any & in_span, dense, s_ref, first, views, details)
     points = resample_curve(dense, spacing_mm, count)
     return Seam3D(points_mm=points, dense_points_mm=dense, ray_gap_mm=gap_mm,
@@ -241,6 +250,11 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
         problems.append(f"the seam's end points seen in the views miss each other by "
                         f"{max(q['endpoint_gap_mm']):.2f} mm (limit {lim.max_endpoint_gap_mm} mm):"
                         f" the hand-eye calibration or the view poses are probably wrong")
+    if q.get("distance_from_nominal_mm_max", 0.0) > q.get("nominal_radius_mm", np.inf):
+        problems.append(f"the seam lies up to {q['distance_from_nominal_mm_max']:.1f} mm from the "
+                        f"job's nominal seam centre, outside its {q['nominal_radius_mm']:.0f} mm "
+                        f"region: another edge was probably taken for the seam, or the part is "
+                        f"not where the job expects it")
     if q["length_mm"] < lim.min_length_mm:
         problems.append(f"the located seam is only {q['length_mm']:.1f} mm long")
     if problems:

@@ -212,3 +212,20 @@ def rotation_error_deg(Ta: ArrayLike, Tb: ArrayLike) -> float:
 def pose_error(Ta: ArrayLike, Tb: ArrayLike) -> tuple[float, float]:
     """(translation error mm, rotation error deg) between two poses."""
     return translation_error_mm(Ta, Tb), rotation_error_deg(Ta, Tb)
+
+
+def look_at(eye_mm: ArrayLike, target_mm: ArrayLike, up: ArrayLike = (0.0, 0.0, 1.0)) -> Pose:
+    """Camera pose ``T_base_cam`` (OpenCV optical frame) at ``eye_mm`` looking at ``target_mm``.
+
+    The image's "up" (minus the camera y axis) points as close to ``up`` as possible. Raises
+    :class:`InputError` when ``up`` is parallel to the viewing direction.
+    """
+    eye = np.asarray(eye_mm, dtype=np.float64)
+    z = np.asarray(target_mm, dtype=np.float64) - eye
+    z /= np.linalg.norm(z)
+    x = np.cross(z, np.asarray(up, dtype=np.float64))
+    if np.linalg.norm(x) < 1e-9:
+        raise InputError(f"look_at: up {list(np.asarray(up))} is parallel to the view direction")
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return make_pose(np.column_stack([x, y, z]), eye)

@@ -1,0 +1,107 @@
+import numpy as np
+import pytest
+from stereo_scenes import camera_poses, observe, seam_curve
+
+from controller.errors import InputError, TriangulationError
+from controller.locate import QualityLimits, ViewObservation, locate_seam
+from controller.poses import make_pose, rotation_about
+from controller.triangulate import PolylineDistance
+
+
+def error_to_truth(P, seam):
+    d = PolylineDistance(P)(seam.dense_points_mm)
+    return float(np.sqrt(np.mean(d**2))), float(d.max())
+
+
+@pytest.mark.parametrize("kind", ["straight", "arc", "s_curve", "nonplanar"])
+def test_exact_curves_triangulate_to_the_truth(kind):
+    P = seam_curve(kind)
+    seam = locate_seam(observe(P, camera_poses(P)))
+    rms, mx = error_to_truth(P, seam)
+    assert rms < 0.002 and mx < 0.01
+    # true end points (coverage of the whole seam)
+    ends = seam.points_mm[[0, -1]]
+    assert min(np.linalg.norm(ends[0] - P[0]), np.linalg.norm(ends[0] - P[-1])) < 0.5
+    assert min(np.linalg.norm(ends[1] - P[0]), np.linalg.norm(ends[1] - P[-1])) < 0.5
+
+
+@pytest.mark.parametrize("kind", ["straight", "arc", "s_curve", "nonplanar"])
+def test_noisy_curves_stay_within_a_tenth_of_a_millimetre(kind):
+    P = seam_curve(kind)
+    seam = locate_seam(observe(P, camera_poses(P), noise_px=0.3, seed=5))
+    rms, mx = error_to_truth(P, seam)
+    assert rms < 0.1 and mx < 0.3
+    assert seam.quality["coverage"] > 0.98
+    assert max(seam.quality["reprojection_px_rms"]) < 0.5
+
+
+def test_resampling_spacing_and_count():
+    P = seam_curve("arc")
+    obs = observe(P, camera_poses(P))
+    a = locate_seam(obs, spacing_mm=2.0)
+    steps = np.linalg.norm(np.diff(a.points_mm, axis=0), axis=1)
+    assert abs(np.median(steps) - 2.0) < 0.05
+    b = locate_seam(obs, spacing_mm=None, count=15)
+    assert len(b.points_mm) == 15
+    assert np.allclose(b.points_mm[[0, -1]], a.points_mm[[0, -1]])
+
+
+def test_three_views_are_accepted_and_more_accurate_than_noise_alone():
+    P = seam_curve("s_curve")
+    poses = camera_poses(P)
+    poses.append(camera_poses(P, along=np.array([0, 1.0, 0]))[0])
+    seam = locate_seam(observe(P, poses, noise_px=0.3, seed=2))
+    assert seam.quality["views"] == 3
+    assert error_to_truth(P, seam)[0] < 0.1
+
+
+def test_seam_along_the_baseline_is_reported_as_degenerate_with_a_fix():
+    P = seam_curve("straight")
+    # baseline along the seam (y): every epipolar line runs along the seam
+    obs = observe(P, camera_poses(P, along=np.array([0, 1.0, 0])))
+    with pytest.raises(TriangulationError, match="epipolar") as info:
+        locate_seam(obs)
+    assert "across the seam" in str(info.value)
+
+
+def test_partly_degenerate_seam_is_flagged():
+    # an arc whose middle runs along the baseline direction
+    P = seam_curve("arc")
+    obs = observe(P, camera_poses(P, along=np.array([0, 1.0, 0])))
+    with pytest.raises(TriangulationError, match="epipolar"):
+        locate_seam(obs, limits=QualityLimits(max_degenerate_fraction=0.02))
+
+
+def test_wrong_pose_of_one_view_is_caught_by_end_point_gap():
+    P = seam_curve("s_curve")
+    poses = camera_poses(P)
+    obs = observe(P, poses)
+    # 5 mm along the camera x axis, i.e. along the seam (an error along the baseline is a pure
+    # change of scale that no two-view check can see: see the nominal region check)
+    wrong = poses[1] @ make_pose(rotation_about([0, 0, 1], 0.0), [5.0, 0, 0])
+    obs[1] = ViewObservation(obs[1].camera, wrong, obs[1].seam_px, "view2")
+    with pytest.raises(TriangulationError, match="end points") as info:
+        locate_seam(obs)
+    assert max(info.value.details["quality"]["endpoint_gap_mm"]) > 1.0
+
+
+def test_another_seam_in_view_two_lands_outside_the_nominal_region():
+    P = seam_curve("straight")
+    Q = P.copy()
+    Q[:, 0] += 60  # view 2 found a parallel edge 60 mm away: geometrically consistent, but the
+    obs = observe(P, camera_poses(P))  # triangulated seam is far from where the job says it is
+    other = observe(Q, camera_poses(P))[1]
+    region = (P.mean(axis=0), 100.0)  # the seam is 180 mm long; the wrong one lands 110 mm low
+    locate_seam(obs, nominal_region=region)
+    with pytest.raises(TriangulationError, match="nominal"):
+        locate_seam([obs[0], other], nominal_region=region)
+
+
+def test_bad_input():
+    P = seam_curve("straight")
+    obs = observe(P, camera_poses(P))
+    with pytest.raises(InputError, match="at least two views"):
+        locate_seam(obs[:1])
+    bad = ViewObservation(obs[1].camera, obs[1].T_base_cam, np.array([[1.0, 2.0]]), "bad")
+    with pytest.raises(InputError, match="bad"):
+        locate_seam([obs[0], bad])
