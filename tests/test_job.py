@@ -1,0 +1,60 @@
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from controller.errors import ConfigError
+from controller.job import load_job, teach_view
+
+EXAMPLE = Path(__file__).parent.parent / "examples" / "demo-job.toml"
+
+
+def test_example_job_loads():
+    job = load_job(EXAMPLE)
+    assert job.name == "demo" and len(job.views) == 2
+    job.require_taught()
+    assert job.weld_params().tool_offset_mm == 3.0
+    assert np.allclose(job.weld_params().T_flange_tcp[:3, 3], [0, 0, 350])
+
+
+def _write(tmp_path, text):
+    p = tmp_path / "job.toml"
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.parametrize("edit,key", [
+    (lambda t: t.replace("speed_mm_s = 8.0", "sped_mm_s = 8.0"), "weld.sped_mm_s"),
+    (lambda t: t.replace("tool_offset_mm = 3.0", "tool_offset_mm = \"3\""), "tool_offset_mm"),
+    (lambda t: t.replace("nominal_centre_mm = [1000.0, 0.0, 300.0]", "nominal_centre_mm = [1, 2]"),
+     "seam.nominal_centre_mm"),
+    (lambda t: t.replace("[0.0, 20.0, 10.0, 0.0, 60.0, 0.0]", "[0.0, 20.0, 80.0, 0.0, 60.0, 0.0]"),
+     "axis 3"),
+    (lambda t: t.replace("speed_mm_s = 200.0", "speed_mm_s = 900.0", 1), "max_speed_mm_s"),
+    (lambda t: t.replace("name = \"demo\"", ""), "name"),
+    (lambda t: t + "\nbogus = 1\n", "bogus"),
+    (lambda t: t.replace("[seam]", "[seam\n"), "not valid TOML"),
+])
+def test_bad_job_files_name_file_and_key(tmp_path, edit, key):
+    p = _write(tmp_path, edit(EXAMPLE.read_text()))
+    with pytest.raises(ConfigError) as info:
+        load_job(p)
+    assert key in str(info.value) and str(p) in str(info.value)
+
+
+def test_untaught_view_is_refused_at_cycle_time(tmp_path):
+    text = EXAMPLE.read_text().replace("joints_deg = [0.0, 20.0, 10.0, 0.0, 60.0, 30.0]\n", "")
+    job = load_job(_write(tmp_path, text))
+    with pytest.raises(ConfigError, match="view2 has not been taught"):
+        job.require_taught()
+
+
+def test_teach_view_replaces_and_appends(tmp_path):
+    p = _write(tmp_path, EXAMPLE.read_text())
+    job = teach_view(p, "view2", np.array([1.0, 21, 11, 2, 61, 31]))
+    assert job.views[1].joints_deg == (1.0, 21.0, 11.0, 2.0, 61.0, 31.0)
+    job = teach_view(p, "view3", np.array([-5.0, 20, 10, 0, 60, -30]))
+    assert [v.name for v in load_job(p).views] == ["view1", "view2", "view3"]
+    with pytest.raises(ConfigError):
+        teach_view(p, "view4", np.array([0.0, 0, 99, 0, 0, 0]))
+    assert len(load_job(p).views) == 3  # nothing written on a refused teach
