@@ -1,0 +1,179 @@
+"""The dry run: one full weld cycle against the mock controller and the simulated camera.
+
+The mock controller runs on a real pseudo-terminal and is driven by the same client as the real
+robot; the simulated camera renders the workpiece from the pose the mock robot is actually in
+(its flange pose times the cell's *true* hand-eye transform). The job's view poses are "taught" by
+inverse kinematics of two views suggested for the scene. Because the simulator knows the truth,
+the summary reports the 3D error of the located seam and of the weld path.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from calibration.calibration_file import Calibration, load_calibration
+from controller.cycle import CycleResult, WeldCycle
+from controller.errors import ReachabilityError
+from controller.job import Job, job_from_dict
+from controller.kinematics import inverse_kinematics, irb2400
+from controller.poses import invert
+from controller.triangulate import PolylineDistance
+
+log = logging.getLogger(__name__)
+
+#: Where the mock robot starts and which IK branch the view poses are taken near.
+HOME_JOINTS_DEG = (0.0, 10.0, 20.0, 0.0, 60.0, 0.0)
+
+
+@dataclass
+class DryRunReport:
+    """A dry run's result plus its comparison with the simulator's truth (mm)."""
+
+    result: CycleResult
+    scene_kind: str
+    seed: int
+    difficulty: str
+    seam_rms_mm: float | None = None
+    seam_max_mm: float | None = None
+    path_rms_mm: float | None = None
+    path_max_mm: float | None = None
+    coverage: float | None = None
+    arc_on_after: bool | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def view_joints(scene: Any, cell: Any, n: int = 2, near: tuple[float, ...] = HOME_JOINTS_DEG,
+                baseline_mm: float = 200.0) -> list[np.ndarray]:
+    """Controller joints (deg) of ``n`` suggested views of ``scene`` for the cell's camera mount."""
+    from drivers.sim_render import suggest_view_poses
+
+    robot = irb2400()
+    out = []
+    for i, T_base_cam in enumerate(suggest_view_poses(scene, cell.camera, n=n,
+                                                      baseline_mm=baseline_mm)):
+        sols = inverse_kinematics(robot, T_base_cam @ invert(cell.T_flange_cam))
+        if not sols:
+            raise ReachabilityError(f"view {i + 1} of the simulated scene cannot be reached")
+        out.append(min(sols, key=lambda j: float(np.max(np.abs(j - np.asarray(near))))))
+    return out
+
+
+def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False) -> Job:
+    """A job for the simulated scene: the views, the nominal seam region and normal, defaults."""
+    region = scene.nominal_region()
+    # A job's nominal region comes from a drawing or a rough teach, not from the truth: shift the
+    # centre by a few millimetres and widen the radius accordingly.
+    rng = np.random.default_rng(scene.seed)
+    centre = np.asarray(region["centre_mm"], dtype=np.float64) + rng.uniform(-5.0, 5.0, 3)
+    data = {
+        "name": f"dry-run-{scene.kind}",
+        "views": [{"name": f"view{i + 1}", "joints_deg": [round(float(v), 4) for v in j]}
+                  for i, j in enumerate(joints)],
+        "seam": {"nominal_centre_mm": [round(float(v), 3) for v in centre],
+                 "nominal_radius_mm": float(region["radius_mm"]) + 20.0,
+                 "normal": [round(float(v), 6) for v in scene.surface_normal]},
+        "weld": {"confirm": confirm},
+    }
+    return job_from_dict(data, "<dry-run job>")
+
+
+def truth_errors(seam_dense_mm: np.ndarray, weld_tcp_mm: np.ndarray, tool_axis: np.ndarray,
+                 tool_offset_mm: float, truth_mm: np.ndarray) -> dict[str, float]:
+    """3D errors (mm) of the located seam and of the welded torch-tip path against the truth.
+
+    The torch tip stands ``tool_offset_mm`` off the seam on purpose; the path error is measured
+    after adding that offset back along each target's torch axis.
+    """
+    dist = PolylineDistance(truth_mm)
+    d_seam = dist(seam_dense_mm)
+    d_path = dist(weld_tcp_mm + tool_offset_mm * tool_axis)
+    return {"seam_rms_mm": float(np.sqrt(np.mean(d_seam**2))), "seam_max_mm": float(d_seam.max()),
+            "path_rms_mm": float(np.sqrt(np.mean(d_path**2))), "path_max_mm": float(d_path.max())}
+
+
+def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_curve",
+                seed: int = 1, difficulty: str = "medium", calibration: str | Path | None = None,
+                robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
+                confirm: bool = False, n_views: int = 2) -> DryRunReport:
+    """Run one cycle in the simulated cell; the record goes under ``output`` (None: no record).
+
+    ``calibration`` is a calibration file to use instead of the cell's exact one (e.g. from a
+    simulated teach session). ``robot_options`` / ``camera_options`` are extra URL query options
+    (fault injection, e.g. ``drop=0.01&corrupt=0.02``). ``speedup`` runs simulated motion that
+    many times faster than real time.
+    """
+    from drivers.cameras import open_camera
+
+    from drivers.robot import SafetyLimits, open_robot
+    from drivers.sim_cell import default_sim_cell
+    from drivers.sim_scene import make_scene
+
+    scene = make_scene(scene_kind, seed, difficulty)
+    cell = default_sim_cell()
+    calib = (load_calibration(calibration) if calibration is not None
+             else Calibration(cell.camera, cell.T_flange_cam,
+                              metadata={"source": "exact simulated cell"}))
+    joints = view_joints(scene, cell, n_views)
+    job = dry_run_job(scene, joints, confirm)
+    limits = SafetyLimits(workspace_min_mm=job.limits.workspace_min_mm,
+                          workspace_max_mm=job.limits.workspace_max_mm,
+                          max_speed_mm_s=job.limits.max_speed_mm_s)
+    query = f"seed={seed}&time_scale={1.0 / speedup:g}"
+    if robot_options:
+        query += "&" + robot_options
+    robot = open_robot(f"mock://?{query}", limits=limits)
+    with robot:
+        mock = robot.mock
+        mock.set_joints(np.asarray(HOME_JOINTS_DEG))
+        cam_url = f"sim:?seed={seed}" + (f"&{camera_options}" if camera_options else "")
+        camera = open_camera(cam_url, scene=scene, camera_model=cell.camera,
+                             pose_source=lambda: mock.flange_pose() @ cell.T_flange_cam)
+        with camera:
+            cycle = WeldCycle(robot, camera, calib, job, records_root=output,
+                              safe_joints_deg=HOME_JOINTS_DEG)
+            result = cycle.run()
+        arc_on = bool(mock.arc_on)
+    report = DryRunReport(result, scene_kind, seed, difficulty, arc_on_after=arc_on)
+    if result.seam is not None and result.path is not None:
+        weld = result.path.weld_targets
+        errs = truth_errors(result.seam.dense_points_mm,
+                            np.array([t.T_base_tcp[:3, 3] for t in weld]),
+                            np.array([t.T_base_tcp[:3, 2] for t in weld]),
+                            result.path.params.tool_offset_mm, scene.seam_points_mm)
+        report.seam_rms_mm, report.seam_max_mm = errs["seam_rms_mm"], errs["seam_max_mm"]
+        report.path_rms_mm, report.path_max_mm = errs["path_rms_mm"], errs["path_max_mm"]
+        report.coverage = result.seam.quality.get("coverage")
+        if cycle.record is not None:
+            cycle.record.note(truth=errs, scene={"kind": scene_kind, "seed": seed,
+                                                 "difficulty": difficulty})
+    return report
+
+
+def summary_text(rep: DryRunReport) -> str:
+    """A short human summary: states and times, seam length, weld points, errors vs truth."""
+    r = rep.result
+    lines = [f"dry run: scene {rep.scene_kind} (seed {rep.seed}, {rep.difficulty}) -> "
+             f"{r.status.upper()}" + (f": {r.reason}" if r.reason else "")]
+    hist = r.state_history
+    for (name, t0), nxt in zip(hist, [*hist[1:], None], strict=True):
+        dur = "" if nxt is None else f"{nxt[1] - t0:8.3f} s"
+        lines.append(f"  {name:<15}{dur}")
+    if r.seam is not None:
+        lines.append(f"  seam: {r.seam.length_mm:.1f} mm, {len(r.seam.points_mm)} points, "
+                     f"coverage {r.seam.quality['coverage']:.1%}")
+    if r.path is not None:
+        lines.append(f"  weld path: {len(r.path.weld_targets)} weld points + approach/depart, "
+                     f"tool offset {r.path.params.tool_offset_mm:.1f} mm")
+    if rep.seam_rms_mm is not None:
+        lines.append(f"  error vs truth: seam {rep.seam_rms_mm:.3f} mm RMS / "
+                     f"{rep.seam_max_mm:.3f} mm max; weld path {rep.path_rms_mm:.3f} mm RMS / "
+                     f"{rep.path_max_mm:.3f} mm max")
+    lines.append(f"  arc after the cycle: {'ON' if rep.arc_on_after else 'off'}")
+    if r.record_path is not None:
+        lines.append(f"  record: {r.record_path}")
+    return "\n".join(lines)
