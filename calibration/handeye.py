@@ -323,6 +323,34 @@ class _Problem:
                                 D[:, 3:].ravel() / self.sigma_mm])
         return np.concatenate([r, prior])
 
+    def jac(self, p: F64) -> F64:
+        """Dense Jacobian by grouped forward differences.
+
+        Each view's correction moves only that view's residuals, so one evaluation perturbs the
+        same component of every view's correction at once (n_global + 6 evaluations in all).
+        """
+        f0 = self.residuals(p)
+        n_par = p.size
+        J = np.zeros((f0.size, n_par))
+        steps = np.full(n_par, 1e-7)
+        steps[3:6] = steps[9:12] = 1e-6  # translations (mm)
+        if self.refine_intrinsics:
+            steps[12:16] = 1e-5  # fx fy cx cy (px)
+        steps[self.n_global:] = 1e-7
+        for c in range(self.n_global):
+            q = p.copy()
+            q[c] += steps[c]
+            J[:, c] = (self.residuals(q) - f0) / steps[c]
+        per_view_3 = np.repeat(np.arange(self.n_views), 3)
+        row_view = np.concatenate([np.repeat(self.view, 2), per_view_3, per_view_3])
+        for c in range(6):
+            q = p.copy()
+            cols = self.n_global + 6 * np.arange(self.n_views) + c
+            q[cols] += steps[cols]
+            diff = (self.residuals(q) - f0) / steps[cols][0]
+            J[np.arange(f0.size), self.n_global + 6 * row_view + c] = diff
+        return J
+
     def sparsity(self) -> Any:
         from scipy.sparse import lil_matrix
 
@@ -471,8 +499,8 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
                         sigma_rad)
         p = prob.x0()
         if refine:
-            sol = least_squares(prob.residuals, p, jac_sparsity=prob.sparsity(), loss=loss,
-                                f_scale=3.0, method="trf", x_scale="jac", max_nfev=100)
+            sol = least_squares(prob.residuals, p, jac=prob.jac, loss=loss, f_scale=3.0,
+                                method="trf", x_scale="jac", tr_solver="exact", max_nfev=100)
             p = sol.x
         X, Y, intr_new, D = prob.unpack(p)
         intr = intr_new

@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -440,6 +441,38 @@ def _eye_to_hand_pose(rng: np.random.Generator, camera: CameraModel, board: Boar
         off = np.array([0.0, 0.0, -10 * dist])
     centre_cam = np.array([0.0, 0.0, dist]) + off
     return make_pose(R, centre_cam - R @ cb)
+
+
+def write_view_folder(session: SimSession, folder: str | Path, *, use_joints: bool = False,
+                      recorded: bool = True) -> list[Path]:
+    """Write a session as a view folder (DESIGN.md view files + PNG images); returns the files.
+
+    ``use_joints`` writes ``joints_deg`` (IK of the recorded flange pose, needs reachable views)
+    instead of ``flange_pose``; ``recorded`` False writes the true poses instead of the noisy ones.
+    """
+    from controller.jsonio import atomic_write_text, dumps
+    from controller.kinematics import inverse_kinematics, irb2400
+    from controller.view_file import view_to_dict
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    files = []
+    for v in session.views:
+        cv2.imwrite(str(out / f"{v.name}.png"), v.image)
+        T = v.T_base_flange if recorded else v.T_base_flange_true
+        if use_joints:
+            sols = inverse_kinematics(irb2400(), T)
+            if not sols:
+                raise ReachabilityError(f"view {v.name}: no IK solution for its flange pose")
+            ref = v.joints_deg if v.joints_deg is not None else np.zeros(6)
+            j = min(sols, key=lambda s: float(np.max(np.abs(s - ref))))
+            doc = view_to_dict(f"{v.name}.png", joints_deg=j)
+        else:
+            doc = view_to_dict(f"{v.name}.png", T_base_flange=T)
+        path = out / f"{v.name}.json"
+        atomic_write_text(path, dumps(doc))
+        files.append(path)
+    return files
 
 
 class SimBoardCamera:
