@@ -181,7 +181,7 @@ def fmt_quat(q_wxyz: ArrayLike) -> str:
 
 
 def parse_number(text: str, name: str) -> float:
-    """A protocol number (``-?d+(.d+)?``, at most 5 + 6 digits); :class:`ProtocolError` otherwise."""
+    """A protocol number (``-?d+(.d+)?``, at most 5 + 6 digits); else :class:`ProtocolError`."""
     if not _NUMBER.match(text):
         raise ProtocolError(f"{name}: {text!r} is not a protocol number")
     return float(text)
