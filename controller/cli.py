@@ -21,6 +21,7 @@ from controller.errors import SeamguideError
 COMMAND_MODULES: tuple[str, ...] = (
     "controller.cli_geometry",
     "controller.cli_cycle",
+    "controller.cli_daemon",
     "controller.cli_calibrate",
 )
 

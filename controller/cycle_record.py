@@ -156,3 +156,45 @@ def mark_interrupted(root: str | os.PathLike[str]) -> list[Path]:
             atomic_write_text(d / "record.json", dumps(doc))
             marked.append(d)
     return marked
+
+
+def rotate_records(root: str | os.PathLike[str], max_age_days: float, max_total_mb: float,
+                   now: float | None = None) -> list[Path]:
+    """Delete old finished records: older than ``max_age_days``, then the oldest over the size.
+
+    The oldest are deleted until the folder is under ``max_total_mb``; incomplete records (a
+    cycle running) are never deleted.
+
+    Returns the deleted folders.
+    """
+    import shutil
+
+    rootp = Path(root)
+    if not rootp.is_dir():
+        return []
+    now = time.time() if now is None else now
+    entries = []
+    for d in sorted(rootp.iterdir()):
+        rec = d / "record.json"
+        if not rec.is_file():
+            continue
+        try:
+            status = read_record(d).get("status")
+        except SeamguideError:
+            status = "unreadable"
+        if status == "incomplete":
+            continue
+        size = sum(f.stat().st_size for f in d.iterdir() if f.is_file())
+        entries.append((rec.stat().st_mtime, d, size))
+    entries.sort()
+    deleted = []
+    total = sum(e[2] for e in entries)
+    for mtime, d, size in entries:
+        too_old = now - mtime > max_age_days * 86400.0
+        too_big = total > max_total_mb * 1e6
+        if not (too_old or too_big):
+            continue
+        shutil.rmtree(d, ignore_errors=True)
+        total -= size
+        deleted.append(d)
+    return deleted

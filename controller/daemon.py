@@ -1,0 +1,344 @@
+"""The cell daemon: waits for cycle requests, runs weld cycles, survives faults, loses nothing.
+
+Requests come from the controller (the RAPID program's operator cycle request, read as a robot
+event) and from the local control socket (``seamguide ctl``). One cycle runs at a time, in the main
+thread; the control socket is served from another thread, and an abort from it reaches the running
+cycle through :meth:`WeldCycle.request_abort` (arc off first).
+
+Start-up order: mark records left ``incomplete`` by a crash as ``interrupted``; connect to the robot
+and make it safe (abort: arc off, motion stopped) *before anything else*; open the camera; serve.
+A fault in a cycle never ends the daemon: a link fault reconnects the robot with exponential
+backoff, a camera fault reopens the camera. SIGTERM aborts a running weld (arc off) and exits;
+SIGHUP reloads the configuration between cycles. Under systemd (``Type=notify``) it reports
+READY, STATUS and watchdog pings.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import queue
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from calibration.calibration_file import Calibration, load_calibration
+from controller.cell_config import CellConfig, load_cell_config
+from controller.control_socket import ControlServer
+from controller.cycle import WeldCycle
+from controller.cycle_record import mark_interrupted, rotate_records
+from controller.errors import CameraError, ConfigError, LinkError, SeamguideError
+from controller.sd_notify import notify, watchdog_interval_s
+
+log = logging.getLogger(__name__)
+
+
+def open_cell_devices(cfg: CellConfig) -> tuple[Any, Any]:
+    """(robot, camera) for the cell, not yet opened; a ``sim:`` camera is wired to the mock robot.
+
+    The simulated camera renders from the mock robot's actual flange pose times the simulated
+    cell's true hand-eye transform, so it needs ``robot.url = "mock://..."``.
+    """
+    from drivers.cameras import open_camera
+
+    from drivers.robot import open_robot
+
+    robot = open_robot(cfg.robot.url, timeout_s=cfg.robot.timeout_s)
+    if cfg.camera.url.startswith("sim:"):
+        if getattr(robot, "mock", None) is None and not cfg.robot.url.startswith("mock:"):
+            raise ConfigError(f"{cfg.path}: camera.url is sim: (a simulated camera), which "
+                              f"renders from the mock robot's pose: robot.url must be mock://")
+        from drivers.sim_cell import default_sim_cell
+        from drivers.sim_scene import make_scene
+
+        assert cfg.sim is not None
+        scene = make_scene(cfg.sim.scene, cfg.sim.seed, cfg.sim.difficulty)
+        cell = default_sim_cell()
+
+        def pose() -> np.ndarray:
+            return np.asarray(robot.mock.flange_pose() @ cell.T_flange_cam)
+
+        camera = open_camera(cfg.camera.url, scene=scene, camera_model=cell.camera,
+                             pose_source=pose)
+    else:
+        camera = open_camera(cfg.camera.url)
+    return robot, camera
+
+
+class Daemon:
+    """The long-running cell process; :meth:`serve` blocks until SIGTERM or :meth:`shutdown`."""
+
+    def __init__(self, config_path: str | Path) -> None:
+        self.config_path = Path(config_path)
+        self.cfg = load_cell_config(config_path)
+        self._requests: queue.Queue[tuple[str, str]] = queue.Queue()
+        self._stop = threading.Event()
+        self._reload = threading.Event()
+        self._paused = threading.Event()
+        self._lock = threading.Lock()
+        self._cycle: WeldCycle | None = None
+        self._cycle_state = "idle"
+        self._cycle_job: str | None = None
+        self.counters = {"cycles_done": 0, "cycles_faulted": 0, "cycles_aborted": 0,
+                         "requests_rejected": 0}
+        self.last_cycle: dict[str, Any] | None = None
+        self.robot: Any = None
+        self.camera: Any = None
+        self.calibration: Calibration | None = None
+        self.robot_state = "disconnected"
+        self.camera_state = "closed"
+        self._backoff = self.cfg.robot.reconnect_min_s
+        self._server: ControlServer | None = None
+        self.ready = threading.Event()
+
+    # ------------------------------------------------------------------ control requests
+    def handle_request(self, req: dict[str, Any]) -> dict[str, Any]:
+        """Answer one control-socket request (thread-safe)."""
+        cmd = req.get("cmd")
+        if cmd == "status":
+            return self.status()
+        if cmd == "start":
+            job = req.get("job")
+            if not isinstance(job, str) or not job:
+                return self._reject("start needs a job name: {\"cmd\": \"start\", \"job\": NAME}")
+            try:
+                self.cfg.job(job)
+            except ConfigError as err:
+                return self._reject(str(err))
+            self._requests.put((job, "control socket"))
+            return {"ok": True, "queued": job, "queue_length": self._requests.qsize()}
+        if cmd == "abort":
+            dropped = self._drain_queue()
+            with self._lock:
+                cycle = self._cycle
+            if cycle is not None:
+                cycle.request_abort("operator abort (control socket)")
+            return {"ok": True, "aborted": cycle is not None, "dropped_requests": dropped}
+        if cmd == "pause":
+            self._paused.set()
+            return {"ok": True, "paused": True}
+        if cmd == "resume":
+            self._paused.clear()
+            return {"ok": True, "paused": False}
+        return self._reject(f"unknown command {cmd!r}; use start, status, abort, pause, resume")
+
+    def _reject(self, why: str) -> dict[str, Any]:
+        with self._lock:
+            self.counters["requests_rejected"] += 1
+        return {"ok": False, "error": why}
+
+    def _drain_queue(self) -> int:
+        n = 0
+        while True:
+            try:
+                self._requests.get_nowait()
+                n += 1
+            except queue.Empty:
+                return n
+
+    def status(self) -> dict[str, Any]:
+        """The status answer: state (``idle`` when waiting), counters, last cycle, devices."""
+        with self._lock:
+            return {"ok": True, "cell": self.cfg.name, "state": self._cycle_state,
+                    "job": self._cycle_job, "paused": self._paused.is_set(),
+                    "robot": self.robot_state, "camera": self.camera_state,
+                    "queue_length": self._requests.qsize(), "counters": dict(self.counters),
+                    "last_cycle": self.last_cycle}
+
+    # ------------------------------------------------------------------ life cycle
+    def request_stop(self, reason: str = "shutdown") -> None:
+        """Stop after making the robot safe: a running weld is aborted (arc off) first."""
+        self._stop.set()
+        with self._lock:
+            cycle = self._cycle
+        if cycle is not None:
+            threading.Thread(target=cycle.request_abort, args=(reason,), daemon=True).start()
+
+    def install_signal_handlers(self) -> None:
+        """SIGTERM/SIGINT stop safely; SIGHUP reloads the configuration between cycles."""
+        signal.signal(signal.SIGTERM, lambda *_: self.request_stop("shutdown (SIGTERM)"))
+        signal.signal(signal.SIGINT, lambda *_: self.request_stop("shutdown (SIGINT)"))
+        signal.signal(signal.SIGHUP, lambda *_: self._reload.set())
+
+    def serve(self) -> int:
+        """Run until stopped; returns the exit code (0 after a clean stop)."""
+        marked = mark_interrupted(self.cfg.records.dir)
+        for d in marked:
+            log.warning("cycle record %s was left incomplete by a previous run: marked "
+                        "interrupted", d)
+        self.calibration = load_calibration(self.cfg.calibration)
+        self._connect_robot()
+        self._server = ControlServer(self.cfg.control.socket, self.handle_request,
+                                     self.cfg.control.max_line_bytes)
+        self._server.start()
+        notify("READY=1")
+        notify(f"STATUS=cell {self.cfg.name}: waiting for cycle requests")
+        log.info("daemon ready: cell %s, control socket %s", self.cfg.name,
+                 self.cfg.control.socket)
+        self.ready.set()
+        wd = watchdog_interval_s()
+        next_wd = time.monotonic()
+        try:
+            while not self._stop.is_set():
+                if wd is not None and time.monotonic() >= next_wd:
+                    notify("WATCHDOG=1")
+                    next_wd = time.monotonic() + wd
+                if self._reload.is_set():
+                    self._do_reload()
+                if self.robot is None:
+                    self._connect_robot()
+                    continue
+                request = self._next_request()
+                if request is not None:
+                    self._run_cycle(*request)
+        finally:
+            self._shutdown()
+        return 0
+
+    def _next_request(self) -> tuple[str, str] | None:
+        if self._paused.is_set():
+            self._stop.wait(0.2)
+            return None
+        try:
+            return self._requests.get(timeout=0.1)
+        except queue.Empty:
+            pass
+        try:
+            event = self.robot.poll_event(timeout_s=0.1)
+        except LinkError as err:
+            log.error("robot link lost while idle: %s", err)
+            self._drop_robot()
+            return None
+        if event is not None and event.kind == "cycle_request":
+            try:
+                self.cfg.job(event.job)
+            except ConfigError as err:
+                log.error("the controller asked for job %r: %s", event.job, err)
+                with self._lock:
+                    self.counters["requests_rejected"] += 1
+                return None
+            return event.job, "controller"
+        return None
+
+    def _connect_robot(self) -> None:
+        """Open the robot link and make the robot safe; back off exponentially on failure."""
+        try:
+            if self.robot is None:
+                robot, camera = open_cell_devices(self.cfg)
+                robot.open()
+                self.robot = robot
+                self.camera = camera
+            self.robot.abort()  # make safe before anything else
+            with self._lock:
+                self.robot_state = "connected"
+            self._backoff = self.cfg.robot.reconnect_min_s
+            self._open_camera()
+        except LinkError as err:
+            with self._lock:
+                self.robot_state = f"reconnecting ({err})"
+            log.error("robot link: %s; retrying in %.1f s", err, self._backoff)
+            self._drop_robot()
+            self._stop.wait(self._backoff)
+            self._backoff = min(self._backoff * 2, self.cfg.robot.reconnect_max_s)
+
+    def _open_camera(self) -> None:
+        if self.camera is None or self.camera_state == "open":
+            return
+        try:
+            self.camera.open()
+            self.camera_state = "open"
+        except CameraError as err:
+            self.camera_state = f"failed ({err})"
+            log.error("camera: %s", err)
+
+    def _drop_robot(self) -> None:
+        if self.robot is not None:
+            with contextlib.suppress(SeamguideError):
+                self.robot.close()
+        self.robot = None
+        if self.camera is not None:
+            with contextlib.suppress(SeamguideError):
+                self.camera.close()
+        self.camera = None
+        self.camera_state = "closed"
+
+    def _run_cycle(self, job_name: str, source: str) -> None:
+        try:
+            job = self.cfg.job(job_name)
+        except ConfigError as err:
+            self._reject(str(err))
+            return
+        if self.camera_state != "open":
+            self._open_camera()
+        assert self.calibration is not None
+        cycle = WeldCycle(self.robot, self.camera, self.calibration, job,
+                          records_root=self.cfg.records.dir,
+                          safe_joints_deg=self.cfg.safe_joints_deg, on_state=self._on_state)
+        with self._lock:
+            self._cycle = cycle
+            self._cycle_job = job_name
+        notify(f"STATUS=cycle of job {job_name} running")
+        log.info("cycle of job %s started (requested by %s)", job_name, source)
+        try:
+            result = cycle.run()
+        finally:
+            with self._lock:
+                self._cycle = None
+                self._cycle_state = "idle"
+                self._cycle_job = None
+        key = {"done": "cycles_done", "aborted": "cycles_aborted"}.get(result.status,
+                                                                      "cycles_faulted")
+        with self._lock:
+            self.counters[key] += 1
+            self.last_cycle = {"job": job_name, "status": result.status,
+                               "reason": result.reason,
+                               "record": str(result.record_path) if result.record_path else None}
+        log.info("cycle of job %s ended %s%s", job_name, result.status,
+                 f": {result.reason}" if result.reason else "")
+        notify(f"STATUS=last cycle {result.status}; waiting for cycle requests")
+        if isinstance(result.error, LinkError):
+            self._drop_robot()
+            with self._lock:
+                self.robot_state = "reconnecting"
+        elif isinstance(result.error, CameraError):
+            with contextlib.suppress(SeamguideError):
+                self.camera.close()
+            self.camera_state = "closed"
+        rotate_records(self.cfg.records.dir, self.cfg.records.max_age_days,
+                       self.cfg.records.max_total_mb)
+
+    def _on_state(self, name: str) -> None:
+        with self._lock:
+            self._cycle_state = name
+
+    def _do_reload(self) -> None:
+        self._reload.clear()
+        try:
+            new = load_cell_config(self.config_path)
+            calib = load_calibration(new.calibration)
+        except SeamguideError as err:
+            log.error("SIGHUP: configuration not reloaded, keeping the old one: %s", err)
+            return
+        devices_changed = (new.robot != self.cfg.robot or new.camera != self.cfg.camera
+                           or new.sim != self.cfg.sim)
+        self.cfg = new
+        self.calibration = calib
+        if devices_changed:
+            self._drop_robot()
+        log.info("configuration reloaded from %s", self.config_path)
+
+    def _shutdown(self) -> None:
+        notify("STOPPING=1")
+        if self.robot is not None:
+            try:
+                self.robot.abort()
+            except SeamguideError as err:
+                log.error("could not make the robot safe at shutdown: %s", err)
+        self._drop_robot()
+        if self._server is not None:
+            self._server.stop()
+        log.info("daemon stopped")
