@@ -697,11 +697,13 @@ class MockController:
             if self._swap_request.is_set():
                 self._swap_request.clear()
                 with self._lock:
-                    os.close(self._master)
-                    os.close(self._slave)
+                    old = (self._master, self._slave)
+                    name = self._open_pty()  # before closing: a new /dev/pts number
+                    for fd in old:
+                        os.close(fd)
                     pending = b""
                     self._splitter.clear()
-                    self._point_link(self._open_pty())
+                    self._point_link(name)
                     self.action_log.append("disconnect")
                 self._swap_done.set()
             pending += self.run_due()
