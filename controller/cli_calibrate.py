@@ -52,6 +52,9 @@ def register(sub: Any) -> None:
                    "camera_pose (T_base_cam) instead of hand_eye")
     p.add_argument("--auto", type=int, metavar="N",
                    help="teach: generate N poses around the first taught pose and drive there")
+    p.add_argument("--confirm", choices=("enter", "controller"), default="enter",
+                   help="teach: take a view on Enter (default) or on a controller request "
+                   "(cycle_request event: job 'take', 'done' or 'abort')")
     p.add_argument("--save-views", metavar="DIR",
                    help="teach: also record every image and view file in DIR")
     p.add_argument("--holdout-every", type=int, default=5, metavar="K",
@@ -143,79 +146,72 @@ def _teach(args: argparse.Namespace, board: Any, solve_kw: dict[str, Any]) -> tu
         camera = open_teach_camera(args.camera, robot, board, default_camera(),
                                    eye_to_hand=args.eye_to_hand)
         lo, hi = _workspace(args.workspace)
-        identity = {"robot": getattr(robot, "identity", lambda: {"url": args.port})(),
+        identity = {"robot": robot.identity(),
                     "camera": getattr(camera, "identity", lambda: {"url": args.camera})()}
+        confirm = robot.controller_confirm() if args.confirm == "controller" else None
         return run_teach(robot, camera, board, auto_n=args.auto, eye_to_hand=args.eye_to_hand,
+                         confirm=confirm,
                          save_dir=args.save_views, pivot_mm=args.pivot_mm,
                          workspace_min_mm=lo, workspace_max_mm=hi, identity=identity,
                          **solve_kw)
     finally:
-        close = getattr(robot, "close", None)
-        if close is not None:
-            close()
+        robot.close()
 
 
 # ---------------------------------------------------------------------------------------------
 # Adapters: the link's robot and the camera drivers seen through the teach routine's interfaces
 # ---------------------------------------------------------------------------------------------
-def _first_method(obj: Any, names: tuple[str, ...], what: str) -> Any:
-    for n in names:
-        m = getattr(obj, n, None)
-        if callable(m):
-            return m
-    raise ConfigError(f"the robot driver {type(obj).__name__} offers no way to {what} "
-                      f"(looked for {', '.join(names)})")
-
-
 class TeachRobotAdapter:
-    """A robot from ``drivers.robot.open_robot`` seen as :class:`calibration.teach.TeachRobot`."""
+    """A :class:`drivers.robot.Robot` seen as :class:`calibration.teach.TeachRobot`."""
 
-    def __init__(self, robot: Any, url: str) -> None:
+    def __init__(self, robot: Any, url: str, speed_mm_s: float = 100.0) -> None:
         self.robot = robot
         self.url = url
+        self.speed_mm_s = speed_mm_s
 
     def joints_deg(self) -> Any:
         """Current controller joints (deg)."""
-        return np.asarray(_first_method(self.robot, ("read_joints", "joints", "get_joints"),
-                                        "read joints")(), float)
+        return np.asarray(self.robot.read_joints(), float)
 
     def flange_pose(self) -> Any:
-        """Current flange pose (4x4, mm): the controller's, else FK of its joints."""
-        for n in ("read_pose", "pose", "flange_pose", "get_pose"):
-            m = getattr(self.robot, n, None)
-            if callable(m):
-                T = m()
-                return np.asarray(getattr(T, "T", T), float)
-        from controller.kinematics import flange_pose, irb2400
-
-        return flange_pose(irb2400(), self.joints_deg())
+        """Current flange pose (4x4, mm) as the controller reports it (tool0, wobj0)."""
+        return np.asarray(self.robot.read_pose(), float)
 
     def move_joints(self, joints_deg: Any, timeout_s: float) -> None:
-        """Move and wait until the controller reports the move done."""
-        move = _first_method(self.robot, ("move_joints", "move_abs_j", "movej"), "move joints")
-        handle = move(np.asarray(joints_deg, float))
-        wait = getattr(handle, "wait", None)
-        if callable(wait):
-            wait(timeout_s)
+        """Move (checked by the link before sending) and wait until the controller says done."""
+        self.robot.move_joints(np.asarray(joints_deg, float), self.speed_mm_s).wait(timeout_s)
 
     def identity(self) -> dict[str, Any]:
-        """The robot's identity for the calibration metadata."""
-        ident = getattr(self.robot, "identity", None)
-        info = ident() if callable(ident) else {}
+        """The controller's identity for the calibration metadata."""
+        info = self.robot.identify()
         return {"url": self.url, **(info if isinstance(info, dict) else {"info": str(info)})}
+
+    def controller_confirm(self, poll_s: float = 0.5) -> Any:
+        """A ``confirm`` callable answered by the controller: a ``cycle_request`` event.
+
+        The pendant program asks for job ``take`` (or any other name) to take a view, ``done``
+        to solve, ``abort`` to stop.
+        """
+        def confirm(progress: Any) -> str:
+            while True:
+                ev = self.robot.poll_event(poll_s)
+                if ev is not None and ev.kind == "cycle_request":
+                    job = str(ev.job).strip().lower()
+                    return job if job in ("done", "abort") else "take"
+        return confirm
 
     def close(self) -> None:
         """Close the link."""
-        close = getattr(self.robot, "close", None)
-        if callable(close):
-            close()
+        self.robot.close()
 
 
 def open_teach_robot(url: str) -> TeachRobotAdapter:
     """Open the robot at ``url`` through the link's registry (``drivers.robot.open_robot``)."""
-    from drivers.robot import open_robot  # type: ignore[import-not-found,unused-ignore]
+    from drivers.robot import open_robot
 
-    return TeachRobotAdapter(open_robot(url), url)
+    robot = open_robot(url)
+    robot.open()
+    return TeachRobotAdapter(robot, url)
 
 
 class TeachCameraAdapter:
