@@ -1,0 +1,562 @@
+"""Find the weld joint in one image: an ordered sub-pixel centreline with a confidence and reasons.
+
+The joint is a thin dark valley with a sheet on each side, running from one sheet border to the
+other. Sheet borders, table holes, marker dots, clutter and glare give edges as strong as the
+joint's, so this looks for the *shape*, not for edges:
+
+1. **Coarse search** on the image shrunk by ``coarse_factor`` (box average, so a thin gap stays
+   visible as a dip): linearise the grey levels (camera response ``gamma``) and compute, in four
+   directions, the *relative valley depth* ``(min(I(p + r n), I(p - r n)) - I(p)) / min(...)``.
+   It is high only where both sides are brighter than the centre: a step edge (sheet border), a
+   dot or a wide dark band give ~0, and dividing by the local brightness makes it independent of
+   uneven light and glare (adaptive rather than a fixed threshold).
+2. **Candidates**: connected components of the thresholded depth, long ones kept; each becomes an
+   ordered polyline by binning its pixels along its principal axis (any orientation in the image;
+   the curve must be monotonic along some direction: straight seams, arcs up to a half circle,
+   S-curves).
+3. **Sub-pixel refinement at full resolution**, only along the candidate: a profile across the
+   curve every ``step_px`` pixels, sampled by exact bilinear interpolation of the *linearised*
+   image (not ``cv2.remap``, which quantises coordinates to 1/32 px), is fitted by a model of two
+   blurred steps (left sheet level, gap floor, right sheet level, centre, width, blur). The centre
+   is the midpoint of the two gap edges, which is unbiased when the sheets differ in brightness,
+   unlike the darkness centroid (biased toward the darker sheet by up to 0.3 px).
+4. **Curve and ends**: the longest run of good profiles (short interruptions by a crossing
+   scratch are bridged) gives honest end points; outliers are dropped and the centreline is
+   smoothed by a local quadratic (Savitzky-Golay) fit over arc length, which follows any shape
+   without the curling of a global polynomial and without shrinking curves.
+5. **Decision**: no candidate that passes -> :class:`SeamNotFound`; two of similar strength ->
+   :class:`AmbiguousSeam`; both carry what was seen in ``details``.
+
+Pixels are (u, v) = (column, row), origin at the centre of the top-left pixel, in the *distorted*
+image (undistort with ``CameraModel.pixels_to_normalized``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.signal import savgol_filter
+from scipy.special import erf
+
+from controller.camera_model import CameraModel
+from controller.errors import AmbiguousSeam, InputError, SeamNotFound
+
+F64 = NDArray[np.float64]
+F32 = NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class DetectParams:
+    """Tuning of :func:`detect_seam` (pixel values at full resolution unless named ``coarse``).
+
+    ``gamma``: camera response used to linearise grey levels (1.0 for a linear camera).
+    ``coarse_factor``: shrink factor of the search image (0: automatic, ~560 px wide).
+    ``valley_r_coarse``: distance (coarse px) from the valley centre to where both sides are read.
+    ``min_depth``: relative valley depth that marks a candidate pixel (0..1).
+    ``min_length_px``: shortest candidate kept (px along the curve).
+    ``step_px``: spacing of the refinement profiles along the seam; ``half_width_px``: half
+    length of each profile. ``max_gap_px``: widest gap accepted. ``ambiguity_ratio``: a second
+    candidate at least this strong relative to the best makes the result ambiguous.
+    ``min_confidence``: below this the detection is refused (:class:`SeamNotFound`).
+    """
+
+    gamma: float = 2.2
+    coarse_factor: int = 0
+    valley_r_coarse: int = 3
+    min_depth: float = 0.15
+    min_length_px: float = 300.0
+    step_px: float = 4.0
+    half_width_px: float = 14.0
+    profile_step_px: float = 1.0
+    fit_iterations: int = 7
+    max_gap_px: float = 16.0
+    min_profile_depth: float = 0.25
+    bridge_px: float = 30.0
+    ambiguity_ratio: float = 0.6
+    min_confidence: float = 0.3
+    max_candidates: int = 4
+
+
+@dataclass(frozen=True)
+class SeamDetection:
+    """A seam found in one image.
+
+    ``points_px`` (K, 2) float64 sub-pixel centreline (u, v), ordered from one end to the other
+    (the end nearer the image's left border first, or the top one for a vertical seam);
+    ``endpoints_px`` (2, 2) its first and last point; ``width_px`` (K,) the fitted gap width;
+    ``confidence`` 0..1; ``reasons`` human-readable lines saying why; ``stats`` numbers behind it.
+    """
+
+    points_px: F64
+    confidence: float
+    reasons: list[str]
+    endpoints_px: F64
+    width_px: F64
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self, decimals: int = 3) -> dict[str, Any]:
+        """JSON-ready dictionary: ``seam_px``, ``endpoints_px``, ``confidence``, ``reasons``..."""
+        return {
+            "seam_px": np.round(self.points_px, decimals).tolist(),
+            "endpoints_px": np.round(self.endpoints_px, decimals).tolist(),
+            "confidence": round(float(self.confidence), 4),
+            "reasons": list(self.reasons),
+            "gap_width_px": round(float(np.median(self.width_px)), 3),
+            "stats": {k: (round(v, 4) if isinstance(v, float) else v)
+                      for k, v in self.stats.items()},
+        }
+
+
+@dataclass
+class _Candidate:
+    polyline: F64  # ordered coarse centreline, full-res px
+    coarse_score: float
+    length_px: float
+    points: F64 | None = None
+    width: F64 | None = None
+    depth: float = 0.0
+    valid_frac: float = 0.0
+    resid: float = 0.0
+    score: float = 0.0
+    ends_ok: tuple[bool, bool] = (False, False)
+    why_rejected: str = ""
+
+
+# ---------------------------------------------------------------------------------------------
+# Public entry
+# ---------------------------------------------------------------------------------------------
+def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
+                roi: tuple[int, int, int, int] | None = None, hint: ArrayLike | None = None,
+                params: DetectParams | None = None) -> SeamDetection:
+    """Find the seam in ``image`` (uint8, greyscale HxW or BGR HxWx3) and return its centreline.
+
+    ``camera``: when given, the image size must match it (a wrong-size image is an
+    :class:`InputError`). ``roi``: (x0, y0, x1, y1) pixel box to search in (end exclusive).
+    ``hint``: a nominal seam polyline (N, 2) px from the job; candidates further than 60 px (mean)
+    from it are ignored. Raises :class:`SeamNotFound` (no candidate passes), :class:`AmbiguousSeam`
+    (two candidates of similar strength), :class:`InputError` (not a uint8 image, wrong size, bad
+    ROI).
+    """
+    p = params or DetectParams()
+    grey = _as_grey(image)
+    H, W = grey.shape
+    if camera is not None and (camera.width, camera.height) != (W, H):
+        raise InputError(f"image is {W}x{H} px but the calibration is for "
+                         f"{camera.width}x{camera.height}; use the calibration of this camera "
+                         "(or resize the image back to the calibrated size)",
+                         image_size=[W, H], calibration_size=[camera.width, camera.height])
+    x0, y0, x1, y1 = _check_roi(roi, W, H)
+    sub = grey[y0:y1, x0:x1]
+    lut = _linear_lut(p.gamma)
+    hint_arr = None if hint is None else np.asarray(hint, dtype=np.float64).reshape(-1, 2)
+    if hint_arr is not None:
+        hint_arr = hint_arr - [x0, y0]
+    cands, seen = _coarse_candidates(sub, lut, p)
+    if hint_arr is not None:
+        cands = [c for c in cands if _mean_dist(c.polyline, hint_arr) < 60.0]
+    for c in cands[: p.max_candidates]:
+        _refine(sub, lut, c, p)
+    good = sorted([c for c in cands[: p.max_candidates] if not c.why_rejected],
+                  key=lambda c: -c.score)
+    rejected = [c.why_rejected for c in cands[: p.max_candidates] if c.why_rejected]
+    details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1],
+                               "rejected": rejected}
+    if not good:
+        raise SeamNotFound(
+            f"no weld seam found in the image ({len(cands)} candidate(s) looked at: "
+            + ("; ".join(rejected) or "no thin dark valley long enough")
+            + "); check that the joint is in view, in focus and lit, or give a --roi", **details)
+    best = good[0]
+    second = good[1] if len(good) > 1 else None
+    ratio = (second.score / best.score) if second is not None else 0.0
+    if second is not None and ratio >= p.ambiguity_ratio:
+        raise AmbiguousSeam(
+            f"two seam candidates of similar strength (score {best.score:.0f} vs "
+            f"{second.score:.0f}, ratio {ratio:.2f}); refusing to choose: give a --roi or a "
+            "nominal seam hint", best_px=_summary(best, x0, y0),
+            second_px=_summary(second, x0, y0), **details)
+    assert best.points is not None and best.width is not None
+    conf, reasons = _confidence(best, ratio)
+    if conf < p.min_confidence:
+        raise SeamNotFound(f"best seam candidate too weak (confidence {conf:.2f}): "
+                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
+    pts = best.points + [x0, y0]
+    pts = _orient(pts)
+    width = best.width if np.allclose(pts[0], best.points[0] + [x0, y0]) else best.width[::-1]
+    stats = {"length_px": float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))),
+             "valid_fraction": float(best.valid_frac), "relative_depth": float(best.depth),
+             "fit_residual": float(best.resid), "second_best_ratio": float(ratio),
+             "candidates": len(cands)}
+    return SeamDetection(points_px=pts, confidence=conf, reasons=reasons,
+                         endpoints_px=np.array([pts[0], pts[-1]]), width_px=width, stats=stats)
+
+
+# ---------------------------------------------------------------------------------------------
+# Input checks
+# ---------------------------------------------------------------------------------------------
+def _as_grey(image: NDArray[Any]) -> NDArray[np.uint8]:
+    img = np.asarray(image)
+    if img.dtype != np.uint8:
+        raise InputError(f"detect_seam needs a uint8 image, got dtype {img.dtype}; load 8-bit "
+                         "images (controller.image_io.load_image)")
+    if img.ndim == 3 and img.shape[2] == 3:
+        return np.asarray(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY), dtype=np.uint8)
+    if img.ndim == 3 and img.shape[2] == 1:
+        return img[:, :, 0]
+    if img.ndim != 2:
+        raise InputError(f"detect_seam needs a greyscale (H, W) or BGR (H, W, 3) image, got "
+                         f"shape {img.shape}")
+    if min(img.shape) < 32:
+        raise InputError(f"image {img.shape[1]}x{img.shape[0]} px is too small to hold a seam "
+                         "(at least 32 px each way)")
+    return img
+
+
+def _check_roi(roi: Any, W: int, H: int) -> tuple[int, int, int, int]:
+    if roi is None:
+        return 0, 0, W, H
+    try:
+        x0, y0, x1, y1 = (int(v) for v in roi)
+    except (TypeError, ValueError) as err:
+        raise InputError(f"roi must be four integers x0,y0,x1,y1, got {roi!r}") from err
+    x0, y0 = max(x0, 0), max(y0, 0)
+    x1, y1 = min(x1, W), min(y1, H)
+    if x1 - x0 < 32 or y1 - y0 < 32:
+        raise InputError(f"roi {list(roi)} leaves {max(x1 - x0, 0)}x{max(y1 - y0, 0)} px of the "
+                         f"{W}x{H} image; give a box of at least 32x32 px inside the image")
+    return x0, y0, x1, y1
+
+
+def _linear_lut(gamma: float) -> F64:
+    """Grey level (0..255) -> linear radiance (0..1) for a camera response of ``gamma``."""
+    return np.asarray((np.arange(256, dtype=np.float64) / 255.0) ** gamma, dtype=np.float64)
+
+
+# ---------------------------------------------------------------------------------------------
+# Coarse search
+# ---------------------------------------------------------------------------------------------
+def _coarse_candidates(grey: NDArray[np.uint8], lut: F64,
+                       p: DetectParams) -> tuple[list[_Candidate], int]:
+    H, W = grey.shape
+    f = p.coarse_factor or max(1, min(6, int(round(W / 560))))
+    small = grey if f == 1 else cv2.resize(grey, (W // f, H // f), interpolation=cv2.INTER_AREA)
+    img = cv2.GaussianBlur(lut.astype(np.float32)[small], (0, 0), 0.7)
+    r = p.valley_r_coarse
+    rd = max(1, int(round(r / np.sqrt(2))))
+    best = np.zeros_like(img)
+    pad = cv2.copyMakeBorder(img, r, r, r, r, cv2.BORDER_REPLICATE)
+    h, w = img.shape
+    for dy, dx in ((0, r), (r, 0), (rd, rd), (rd, -rd)):
+        a = pad[r + dy:r + dy + h, r + dx:r + dx + w]
+        b = pad[r - dy:r - dy + h, r - dx:r - dx + w]
+        side = np.minimum(a, b)
+        depth = (side - img) / (side + 0.01)
+        np.maximum(best, depth, out=best)
+    mask = (best > p.min_depth).astype(np.uint8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    cands: list[_Candidate] = []
+    min_len_c = p.min_length_px / f
+    idx = [i for i in range(1, n)
+           if np.hypot(stats[i, cv2.CC_STAT_WIDTH], stats[i, cv2.CC_STAT_HEIGHT]) >= min_len_c]
+    for i in idx:
+        x, y, ww, hh = stats[i, :4]
+        sl = labels[y:y + hh, x:x + ww] == i
+        ys, xs = np.nonzero(sl)
+        wts = best[y:y + hh, x:x + ww][sl]
+        poly = _order_pixels(xs + x, ys + y, wts)
+        if poly is None:
+            continue
+        poly_full = (poly + 0.5) * f - 0.5
+        length = float(np.sum(np.linalg.norm(np.diff(poly_full, axis=0), axis=1)))
+        if length < p.min_length_px:
+            continue
+        cands.append(_Candidate(poly_full, float(np.sum(wts)) * f, length))
+    cands.sort(key=lambda c: -c.coarse_score)
+    return cands, len(idx)
+
+
+def _order_pixels(xs: NDArray[Any], ys: NDArray[Any], w: NDArray[Any]) -> F64 | None:
+    """Ordered polyline through a thin blob: the strongest pixel per bin along its main axis."""
+    P = np.column_stack([xs, ys]).astype(np.float64)
+    c = np.average(P, axis=0, weights=w)
+    cov = np.cov((P - c).T, aweights=w)
+    evals, evecs = np.linalg.eigh(cov)
+    axis, perp = evecs[:, 1], evecs[:, 0]
+    s = (P - c) @ axis
+    o = (P - c) @ perp
+    bins = np.floor((s - s.min()) / 1.5).astype(np.int64)
+    nb = int(bins.max()) + 1
+    if nb < 8:
+        return None
+    # Per bin: weighted mean of the offsets of the strongest pixels (within 1.5 px of the best).
+    order = np.lexsort((-w, bins))
+    first = np.ones(len(order), bool)
+    first[1:] = bins[order][1:] != bins[order][:-1]
+    best_o = np.full(nb, np.nan)
+    best_o[bins[order][first]] = o[order][first]
+    near = np.abs(o - best_o[bins]) <= 1.5
+    num = np.bincount(bins[near], weights=(w * o)[near], minlength=nb)
+    den = np.bincount(bins[near], weights=w[near], minlength=nb)
+    ok = den > 0
+    sb = (np.arange(nb) + 0.5) * 1.5 + s.min()
+    ob = num[ok] / den[ok]
+    sb = sb[ok]
+    if len(ob) >= 7:
+        med = _running_median(ob, 5)
+        keep = np.abs(ob - med) < 2.0
+        sb, ob = sb[keep], ob[keep]
+    if len(ob) < 8:
+        return None
+    return np.asarray(c + np.outer(sb, axis) + np.outer(ob, perp))
+
+
+def _running_median(x: F64, k: int) -> F64:
+    h = k // 2
+    xp = np.pad(x, h, mode="edge")
+    win = np.lib.stride_tricks.sliding_window_view(xp, k)
+    return np.asarray(np.median(win, axis=1))
+
+
+def _mean_dist(poly: F64, ref: F64) -> float:
+    d = np.linalg.norm(poly[::4, None, :] - ref[None, ::max(1, len(ref) // 200), :], axis=2)
+    return float(d.min(axis=1).mean())
+
+
+# ---------------------------------------------------------------------------------------------
+# Sub-pixel refinement
+# ---------------------------------------------------------------------------------------------
+def _resample(poly: F64, step: float, extend: float) -> tuple[F64, F64]:
+    """Points every ``step`` px along ``poly`` (extended by ``extend`` px at both ends), normals."""
+    seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    # Smooth tangents from a chord over ~10 px.
+    t0 = poly[min(len(poly) - 1, 6)] - poly[0]
+    t1 = poly[-1] - poly[max(0, len(poly) - 7)]
+    t0 /= np.linalg.norm(t0) + 1e-12
+    t1 /= np.linalg.norm(t1) + 1e-12
+    q = np.arange(-extend, s[-1] + extend + 1e-9, step)
+    pts = np.column_stack([np.interp(q, s, poly[:, 0]), np.interp(q, s, poly[:, 1])])
+    lo, hi = q < 0, q > s[-1]
+    pts[lo] = poly[0] + np.outer(q[lo], t0)
+    pts[hi] = poly[-1] + np.outer(q[hi] - s[-1], t1)
+    k = max(2, int(round(8 / step)))
+    tang = np.empty_like(pts)
+    idx = np.arange(len(pts))
+    a, b = np.clip(idx - k, 0, len(pts) - 1), np.clip(idx + k, 0, len(pts) - 1)
+    tang = pts[b] - pts[a]
+    tang /= np.linalg.norm(tang, axis=1, keepdims=True) + 1e-12
+    normal = np.column_stack([-tang[:, 1], tang[:, 0]])
+    return pts, normal
+
+
+def _bilinear(grey: NDArray[np.uint8], lut: F64, u: F64, v: F64) -> tuple[F64, NDArray[np.bool_]]:
+    H, W = grey.shape
+    inside = (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
+    uc = np.clip(u, 0, W - 1.000001)
+    vc = np.clip(v, 0, H - 1.000001)
+    u0 = np.floor(uc).astype(np.int64)
+    v0 = np.floor(vc).astype(np.int64)
+    fu, fv = uc - u0, vc - v0
+    i00 = lut[grey[v0, u0]]
+    i01 = lut[grey[v0, u0 + 1]]
+    i10 = lut[grey[v0 + 1, u0]]
+    i11 = lut[grey[v0 + 1, u0 + 1]]
+    val = (i00 * (1 - fu) + i01 * fu) * (1 - fv) + (i10 * (1 - fu) + i11 * fu) * fv
+    return val, inside
+
+
+def _model(x: F64, prm: F64) -> tuple[F64, F64]:
+    """Two blurred steps: value (K, S) and Jacobian (K, S, 6) for (L, R, F, c, w, s)."""
+    L, R, F, c, w, s = (prm[:, i:i + 1] for i in range(6))
+    s = np.maximum(s, 0.15)
+    z1 = (-(x - c) - w / 2) / s
+    z2 = ((x - c) - w / 2) / s
+    P1 = 0.5 * (1 + erf(z1 / np.sqrt(2)))
+    P2 = 0.5 * (1 + erf(z2 / np.sqrt(2)))
+    g1 = np.exp(-0.5 * z1 * z1) / np.sqrt(2 * np.pi)
+    g2 = np.exp(-0.5 * z2 * z2) / np.sqrt(2 * np.pi)
+    val = F + (L - F) * P1 + (R - F) * P2
+    J = np.empty(val.shape + (6,))
+    J[..., 0] = P1
+    J[..., 1] = P2
+    J[..., 2] = 1 - P1 - P2
+    J[..., 3] = ((L - F) * g1 - (R - F) * g2) / s
+    J[..., 4] = (-(L - F) * g1 - (R - F) * g2) / (2 * s)
+    J[..., 5] = (-(L - F) * g1 * z1 - (R - F) * g2 * z2) / s
+    return val, J
+
+
+def _fit_profiles(x: F64, prof: F64, iterations: int) -> tuple[F64, F64]:
+    """Levenberg-Marquardt fit of :func:`_model` to every profile; returns params, RMS residual."""
+    K, S = prof.shape
+    n_side = max(3, S // 6)
+    L0 = np.median(prof[:, :n_side], axis=1)
+    R0 = np.median(prof[:, -n_side:], axis=1)
+    sm = cv2.GaussianBlur(prof.astype(np.float32), (0, 0), sigmaX=1.5, sigmaY=0.01).astype(
+        np.float64) if S > 4 else prof
+    centre_zone = np.abs(x) <= x.max() * 0.6
+    zi = np.argmin(np.where(centre_zone[None, :], sm, np.inf), axis=1)
+    F0 = prof[np.arange(K), zi]
+    c0 = x[zi]
+    base = np.maximum(np.minimum(L0, R0), 1e-6)
+    area = np.sum(np.clip(base[:, None] - prof, 0, None), axis=1) * (x[1] - x[0])
+    w0 = np.clip(area / np.maximum(base - F0, 1e-6), 1.0, 14.0)
+    prm = np.column_stack([L0, R0, F0, c0, w0, np.full(K, 1.0)])
+    lam = np.full(K, 1e-2)
+    val, J = _model(x, prm)
+    res = prof - val
+    cost = np.sum(res * res, axis=1)
+    for _ in range(iterations):
+        JT = np.transpose(J, (0, 2, 1))
+        A = JT @ J
+        g = np.einsum("ksp,ks->kp", J, res)
+        dg = np.einsum("kii->ki", A)
+        A2 = A + (lam[:, None] * (dg + 1e-9))[:, :, None] * np.eye(6)[None]
+        try:
+            step = np.linalg.solve(A2, g[:, :, None])[:, :, 0]
+        except np.linalg.LinAlgError:
+            break
+        new = prm + step
+        new[:, 4] = np.clip(new[:, 4], 0.05, 40.0)
+        new[:, 5] = np.clip(new[:, 5], 0.2, 6.0)
+        v2, J2 = _model(x, new)
+        r2 = prof - v2
+        c2 = np.sum(r2 * r2, axis=1)
+        better = c2 < cost
+        prm[better], J[better], res[better], cost[better] = new[better], J2[better], r2[better], \
+            c2[better]
+        lam = np.where(better, lam * 0.3, lam * 5.0)
+    return prm, np.sqrt(cost / S)
+
+
+def _fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64,
+            p: DetectParams) -> dict[str, Any]:
+    """Fit the two-edge gap model to profiles across the curve at ``pts`` along normals ``nrm``."""
+    x = np.arange(-p.half_width_px, p.half_width_px + 1e-9, p.profile_step_px)
+    U = pts[:, 0:1] + nrm[:, 0:1] * x[None, :]
+    V = pts[:, 1:2] + nrm[:, 1:2] * x[None, :]
+    prof, inside = _bilinear(grey, lut, U, V)
+    prm, rms = _fit_profiles(x, prof, p.fit_iterations)
+    L, R, F, cc, w, s = prm.T
+    side = np.minimum(L, R)
+    depth = (side - np.maximum(F, 0.0)) / np.maximum(side, 1e-6)
+    H, W = grey.shape
+    centre = pts + nrm * cc[:, None]
+    in_img = ((centre[:, 0] >= -0.5) & (centre[:, 0] <= W - 0.5)
+              & (centre[:, 1] >= -0.5) & (centre[:, 1] <= H - 0.5))
+    valid = ((depth > p.min_profile_depth) & (np.abs(cc) < 8.0) & (w > 0.4)
+             & (w < p.max_gap_px) & (s < 4.0) & (rms < 0.35 * (side - F) + 0.004) & in_img
+             & inside[:, inside.shape[1] // 2])
+    return {"valid": valid, "centre": centre, "depth": depth, "width": w, "rms": rms,
+            "contrast": side - F}
+
+
+def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -> None:
+    pts, nrm = _resample(c.polyline, p.step_px, extend=24.0)
+    fit = _fit_at(grey, lut, pts, nrm, p)
+    valid = fit["valid"]
+    # Longest run of valid profiles, bridging short interruptions; short islands at its ends are
+    # dropped (a lone fit on the sheet border beyond the seam's end is not the seam).
+    bridge = int(round(p.bridge_px / p.step_px))
+    run = _longest_bridged_run(valid, bridge, min_island=max(3, int(round(12 / p.step_px))))
+    if run is None or (run[1] - run[0]) * p.step_px < p.min_length_px * 0.5:
+        c.why_rejected = (f"candidate of {c.length_px:.0f} px has no long run of gap profiles "
+                          f"({int(valid.sum())} of {len(valid)} good)")
+        return
+    i0, i1 = run
+    sel = np.arange(i0, i1 + 1)
+    ok = valid[sel]
+    pts_run = fit["centre"][sel].copy()
+    t = np.arange(len(sel), dtype=np.float64)
+    for k in range(2):
+        pts_run[~ok, k] = np.interp(t[~ok], t[ok], pts_run[ok, k])
+    win = int(min((len(sel) - 1) // 2 * 2 + 1, 2 * int(round(14 / p.step_px)) + 1))
+    if win >= 5:
+        sm = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
+        dev = np.linalg.norm(pts_run - sm, axis=1)
+        mad = np.median(dev[ok]) + 1e-6
+        good = ok & (dev < max(4 * mad, 0.6))
+        for k in range(2):
+            pts_run[~good, k] = np.interp(t[~good], t[good], pts_run[good, k])
+        pts_run = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
+    depth_med = float(np.median(fit["depth"][sel][ok]))
+    # Honest ends: probe every pixel beyond each end of the run, keep the last good one.
+    ends = []
+    for first in (True, False):
+        e_pt = pts_run[0] if first else pts_run[-1]
+        nb = pts_run[min(3, len(pts_run) - 1)] if first else pts_run[max(0, len(pts_run) - 4)]
+        tang = e_pt - nb
+        tang /= np.linalg.norm(tang) + 1e-12
+        ks = np.arange(1.0, 2 * p.step_px + 4)
+        probe = e_pt + np.outer(ks, tang)
+        nrm_e = np.tile([-tang[1], tang[0]], (len(ks), 1))
+        pf = _fit_at(grey, lut, probe, nrm_e, p)
+        okp = (pf["valid"] & (pf["depth"] > 0.5 * depth_med)
+               & (np.linalg.norm(pf["centre"] - probe, axis=1) < 2.0))
+        n_ok = int(np.argmin(okp)) if not okp.all() else len(okp)
+        ends.append(e_pt + tang * (ks[n_ok - 1] if n_ok else 0.0))
+    pts_run = np.vstack([ends[0], pts_run, ends[1]])
+    c.points = pts_run
+    w_run = fit["width"][sel]
+    c.width = np.concatenate([[w_run[0]], w_run, [w_run[-1]]])
+    c.depth = depth_med
+    c.valid_frac = float(ok.mean())
+    c.resid = float(np.median(fit["rms"][sel][ok] / np.maximum(fit["contrast"][sel][ok], 1e-6)))
+    length = float(np.sum(np.linalg.norm(np.diff(pts_run, axis=0), axis=1)))
+    if length < p.min_length_px:
+        c.why_rejected = f"gap run only {length:.0f} px long (< {p.min_length_px:.0f})"
+        return
+    c.length_px = length
+    c.score = length * c.depth * c.valid_frac
+
+
+def _longest_bridged_run(valid: NDArray[np.bool_], bridge: int,
+                         min_island: int) -> tuple[int, int] | None:
+    valid = valid.copy()
+    # Remove islands of valid samples shorter than min_island.
+    m = np.concatenate([[0], valid.astype(np.int8), [0]])
+    st, en = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
+    for a, b in zip(st, en, strict=True):
+        if b - a < min_island:
+            valid[a:b] = False
+    idx = np.flatnonzero(valid)
+    if idx.size < 2:
+        return None
+    breaks = np.flatnonzero(np.diff(idx) > bridge + 1)
+    starts = np.concatenate([[0], breaks + 1])
+    ends = np.concatenate([breaks, [idx.size - 1]])
+    lens = idx[ends] - idx[starts]
+    k = int(np.argmax(lens))
+    return int(idx[starts[k]]), int(idx[ends[k]])
+
+
+# ---------------------------------------------------------------------------------------------
+# Decision
+# ---------------------------------------------------------------------------------------------
+def _confidence(c: _Candidate, ratio: float) -> tuple[float, list[str]]:
+    reasons = [f"thin dark valley {c.length_px:.0f} px long with a sheet on each side",
+               f"{100 * c.valid_frac:.0f} % of cross-profiles fit two gap edges",
+               f"relative gap depth {c.depth:.2f}, fit residual {100 * c.resid:.1f} % of depth"]
+    conf = (min(1.0, c.valid_frac / 0.9) * min(1.0, c.depth / 0.4)
+            * max(0.0, 1.0 - max(0.0, c.resid - 0.05) * 4) * (1.0 - 0.5 * ratio))
+    if ratio > 0:
+        reasons.append(f"next candidate {100 * ratio:.0f} % as strong")
+    else:
+        reasons.append("no other candidate")
+    return float(np.clip(conf, 0.0, 1.0)), reasons
+
+
+def _summary(c: _Candidate, x0: int, y0: int) -> list[list[float]]:
+    pts = c.points if c.points is not None else c.polyline
+    return np.round(pts[[0, len(pts) // 2, -1]] + [x0, y0], 1).tolist()
+
+
+def _orient(pts: F64) -> F64:
+    d = pts[-1] - pts[0]
+    if abs(d[0]) >= abs(d[1]):
+        return pts if d[0] >= 0 else pts[::-1].copy()
+    return pts if d[1] >= 0 else pts[::-1].copy()
