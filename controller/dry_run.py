@@ -23,11 +23,13 @@ from controller.job import Job, job_from_dict
 from controller.kinematics import inverse_kinematics, irb2400
 from controller.poses import invert
 from controller.triangulate import PolylineDistance
+from drivers.mock_controller import HOME_DEG as MOCK_HOME_DEG
 
 log = logging.getLogger(__name__)
 
-#: Where the mock robot starts and which IK branch the view poses are taken near.
-HOME_JOINTS_DEG = (0.0, 10.0, 20.0, 0.0, 60.0, 0.0)
+#: The IK branch the view poses are taken near, and the safe pose after a fault: the mock
+#: controller's home.
+HOME_JOINTS_DEG: tuple[float, ...] = tuple(float(v) for v in MOCK_HOME_DEG)
 
 
 @dataclass
@@ -129,7 +131,6 @@ def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_c
     robot = open_robot(f"mock://?{query}", limits=limits)
     with robot:
         mock = robot.mock
-        mock.set_joints(np.asarray(HOME_JOINTS_DEG))
         cam_url = f"sim:?seed={seed}" + (f"&{camera_options}" if camera_options else "")
         camera = open_camera(cam_url, scene=scene, camera_model=cell.camera,
                              pose_source=lambda: mock.flange_pose() @ cell.T_flange_cam)

@@ -26,9 +26,9 @@ def _write(tmp_path, text):
 @pytest.mark.parametrize("edit,key", [
     (lambda t: t.replace("speed_mm_s = 8.0", "sped_mm_s = 8.0"), "weld.sped_mm_s"),
     (lambda t: t.replace("tool_offset_mm = 3.0", "tool_offset_mm = \"3\""), "tool_offset_mm"),
-    (lambda t: t.replace("nominal_centre_mm = [1000.0, 0.0, 300.0]", "nominal_centre_mm = [1, 2]"),
+    (lambda t: t.replace("nominal_centre_mm = [1000.0, 5.0, 296.0]", "nominal_centre_mm = [1, 2]"),
      "seam.nominal_centre_mm"),
-    (lambda t: t.replace("[0.0, 20.0, 10.0, 0.0, 60.0, 0.0]", "[0.0, 20.0, 80.0, 0.0, 60.0, 0.0]"),
+    (lambda t: t.replace("[-10.9433, 11.3498, 36.8942,", "[-10.9433, 11.3498, 86.8942,"),
      "axis 3"),
     (lambda t: t.replace("speed_mm_s = 200.0", "speed_mm_s = 900.0", 1), "max_speed_mm_s"),
     (lambda t: t.replace("name = \"demo\"", ""), "name"),
@@ -43,7 +43,8 @@ def test_bad_job_files_name_file_and_key(tmp_path, edit, key):
 
 
 def test_untaught_view_is_refused_at_cycle_time(tmp_path):
-    text = EXAMPLE.read_text().replace("joints_deg = [0.0, 20.0, 10.0, 0.0, 60.0, 30.0]\n", "")
+    text = EXAMPLE.read_text().replace(
+        "joints_deg = [3.5565, 33.195, 29.2661, -11.6025, 75.3452, -121.8785]\n", "")
     job = load_job(_write(tmp_path, text))
     with pytest.raises(ConfigError, match="view2 has not been taught"):
         job.require_taught()

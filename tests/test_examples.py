@@ -1,0 +1,41 @@
+"""The shipped examples stay consistent with the simulated cell they describe."""
+
+from pathlib import Path
+
+import numpy as np
+
+from calibration.calibration_file import load_calibration
+from controller.cell_config import check_config, load_cell_config
+from controller.dry_run import view_joints
+from controller.job import load_job
+from controller.poses import pose_error
+from drivers.sim_cell import default_sim_cell
+from drivers.sim_scene import make_scene
+
+EXAMPLES = Path(__file__).parent.parent / "examples"
+
+
+def test_sim_calibration_is_the_simulated_cell():
+    calib = load_calibration(EXAMPLES / "sim-calibration.yaml")
+    cell = default_sim_cell()
+    assert np.allclose(calib.camera.K, cell.camera.K)
+    assert np.allclose(calib.camera.dist, cell.camera.dist)
+    d_mm, d_deg = pose_error(calib.T_flange_cam, cell.T_flange_cam)
+    assert d_mm < 1e-9 and d_deg < 1e-9
+
+
+def test_demo_job_views_look_at_the_sim_cell_scene():
+    cfg = load_cell_config(EXAMPLES / "sim-cell.toml")
+    scene = make_scene(cfg.sim.scene, cfg.sim.seed, cfg.sim.difficulty)
+    expected = view_joints(scene, default_sim_cell())
+    job = load_job(EXAMPLES / "demo-job.toml")
+    for v, e in zip(job.views, expected, strict=True):
+        assert np.max(np.abs(np.asarray(v.joints_deg) - e)) < 1e-3
+    centre = np.asarray(job.seam.nominal_centre_mm)
+    dist = np.linalg.norm(scene.seam_points_mm - centre, axis=1)
+    assert dist.max() < job.seam.nominal_radius_mm
+
+
+def test_sim_cell_config_checks():
+    report = check_config(EXAMPLES / "sim-cell.toml")
+    assert any("job demo" in line and "2 taught" in line for line in report)
