@@ -520,7 +520,8 @@ class MockController:
 
     def _cmd_AB(self, a: list[str], after: list[Callable[[], None]]) -> str:
         self._nargs(a, 0, "AB")
-        self._set_arc(False)  # arc off FIRST
+        self._arc = False  # arc output off FIRST (always written, as SetDO does)
+        self.action_log.append("arc_off")
         self.action_log.append("stop")
         m = self._motion
         if m is not None:
@@ -635,18 +636,19 @@ class MockController:
             self._heap = []
             self._reset_volatile()
 
-    def disconnect(self, timeout_s: float = 2.0) -> None:
+    def disconnect(self, timeout_s: float = 2.0, wait: bool = True) -> None:
         """Drop the link: close the pty and open a new one behind the same symlink path.
 
         The controller state (session, remembered reply, motion) survives, as when a cable is
-        pulled and plugged back. Only for a mock served with :meth:`serve_pty`.
+        pulled and plugged back; replies not yet written are lost. Only for a mock served with
+        :meth:`serve_pty`. ``wait=False`` returns at once (for use inside the mock's own thread).
         """
         if self._thread is None:
             raise ConfigError("disconnect() needs a mock served on a pty (serve_pty)")
         self._swap_done.clear()
         self._swap_request.set()
         self._wake()
-        if not self._swap_done.wait(timeout_s):
+        if wait and not self._swap_done.wait(timeout_s):
             raise ConfigError("mock controller did not swap its pty in time")
 
     # ---- serving on a pseudo-terminal ----------------------------------------------------------
@@ -694,7 +696,8 @@ class MockController:
     def _serve(self) -> None:
         pending = b""
         while not self._stop.is_set():
-            if self._swap_request.is_set():
+            pending += self.run_due()
+            if self._swap_request.is_set():  # after run_due: replies not yet written are lost
                 self._swap_request.clear()
                 with self._lock:
                     old = (self._master, self._slave)
@@ -706,7 +709,6 @@ class MockController:
                     self._point_link(name)
                     self.action_log.append("disconnect")
                 self._swap_done.set()
-            pending += self.run_due()
             if pending:
                 try:
                     n = os.write(self._master, pending)

@@ -1,0 +1,287 @@
+"""The link client against the mock controller over a real pseudo-terminal (pyserial for real):
+retransmission, duplicates, no reply, reconnect and restart mid-path, abort during a weld, the
+difference between "link returned nothing" and "robot did not finish", and a short soak.
+
+No sleeps: every wait is on a reply or an event, with a timeout."""
+
+from __future__ import annotations
+
+import collections
+import importlib.util
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from controller.errors import LinkError, RobotFault, SafetyError
+from controller.kinematics import flange_pose, irb2400
+from controller.poses import make_pose, pose_error
+from drivers import abb_codec as codec
+from drivers.abb_link import AbbLink
+from drivers.mock_controller import MockController
+from drivers.robot import MotionTimeout, open_robot
+
+TOOL = make_pose(t_mm=[0.0, 0.0, 300.0])
+
+
+def weld_line(n: int, start=(0.0, 10.0, 0.0, 0.0, 60.0, 0.0)) -> list[np.ndarray]:
+    T = flange_pose(irb2400(), start) @ TOOL
+    return [T @ make_pose(t_mm=[0.0, 1.0 * i, 0.0]) for i in range(n)]
+
+
+def test_basic_requests_over_a_pty():
+    with open_robot("mock://?seed=2") as robot:
+        info = robot.identify()
+        assert info["protocol"] == "SGRS" and info["path_capacity"] == 250
+        assert np.allclose(robot.read_joints(), robot.mock.joints_deg, atol=1e-4)
+        assert pose_error(robot.read_pose(), robot.mock.flange_pose())[0] < 1e-3
+        h = robot.move_joints([10, 20, 10, 0, 30, 0], speed_mm_s=200)
+        h.wait(5.0)
+        assert h.state == "done"
+        assert np.allclose(robot.mock.joints_deg, [10, 20, 10, 0, 30, 0])
+
+
+def test_pose_sent_and_read_back_moves_the_tool_less_than_0_01_mm():
+    rng = np.random.default_rng(4)
+    with open_robot("mock://") as robot:
+        robot.set_tool(TOOL)
+        assert np.allclose(robot.mock.tool, TOOL)
+        for _ in range(5):
+            j = rng.uniform([-60, -20, -20, -90, 30, -90], [60, 40, 30, 90, 90, 90])
+            T_base_tcp = flange_pose(irb2400(), j) @ TOOL
+            robot.move_linear(T_base_tcp, speed_mm_s=200).wait(5.0)
+            T_back = robot.read_pose() @ TOOL
+            assert pose_error(T_base_tcp, T_back)[0] < 0.01
+            assert pose_error(T_base_tcp, robot.mock.flange_pose() @ TOOL)[0] < 0.01
+
+
+def test_lost_lines_are_retransmitted_and_nothing_runs_twice():
+    with open_robot("mock://?seed=3&drop=0.2&dup=0.2", ack_timeout_s=0.05, retries=30,
+                    status_poll_s=0.1) as robot:
+        for k in range(10):
+            robot.move_joints([5.0 * k, 10, 0, 0, 30, 0], speed_mm_s=200).wait(10.0)
+            assert np.allclose(robot.mock.joints_deg, [5.0 * k, 10, 0, 0, 30, 0])
+        mids = [e["mid"] for e in robot.mock.executed]
+        assert mids == list(range(1, 11))
+        assert robot.link.stats["retransmissions"] > 0
+        assert robot.mock.link_stats["duplicates_suppressed"] > 0
+
+
+def test_no_reply_is_a_link_error_naming_the_request():
+    # loop:// hands our own request back: never a reply.
+    link = AbbLink("loop://", ack_timeout_s=0.02, retries=3)
+    link.open()
+    try:
+        with pytest.raises(LinkError, match=r"no valid reply to 'Q01 RJ\*.*after 4 tries"):
+            link.request("RJ", timeout_s=2.0)
+    finally:
+        link.close()
+
+
+def test_unopenable_port_is_a_link_error(tmp_path):
+    with pytest.raises(LinkError, match="cannot open robot link"):
+        open_robot(str(tmp_path / "nope")).open()
+
+
+def test_motion_timeout_is_not_a_link_error_and_abort_stops_it():
+    with open_robot("mock://?time_scale=1") as robot:
+        h = robot.move_joints([90, 0, 0, 0, 30, 0], speed_mm_s=5)  # ~1 s of motion
+        with pytest.raises(MotionTimeout, match="did not finish"):
+            h.wait(0.2)
+        assert robot.status()["moving"]
+        robot.abort()
+        with pytest.raises(RobotFault, match="aborted"):
+            h.wait(2.0)
+        st = robot.status()
+        assert not st["moving"] and st["motion_state"] == "aborted"
+        assert robot.mock.action_log[-2:] == ["arc_off", "stop"]
+
+
+def test_abort_from_another_thread_during_a_weld_arc_off_first():
+    with open_robot("mock://?time_scale=1") as robot:
+        robot.set_tool(TOOL)
+        path = weld_line(40)
+        robot.move_linear(path[0], speed_mm_s=200).wait(5.0)
+        robot.upload_path(path)
+        h = robot.run_weld(speed_mm_s=20.0)  # 39 mm at 20 mm/s: about 2 s
+        errors: list[BaseException] = []
+
+        def waiter() -> None:
+            try:
+                h.wait(10.0)
+            except BaseException as err:
+                errors.append(err)
+
+        t = threading.Thread(target=waiter)
+        t.start()
+        robot.poll_event(2.0)  # the first progress event: the arc is on and the weld moving
+        assert robot.mock.arc_on
+        robot.abort()
+        t.join(5.0)
+        assert not t.is_alive()
+        assert len(errors) == 1 and isinstance(errors[0], RobotFault)
+        assert not robot.mock.arc_on
+        log = robot.mock.action_log
+        assert log[log.index("arc_on"):] == ["arc_on", "arc_off", "stop"]
+        assert h.progress < 39
+
+
+def test_weld_progress_and_fault_at_point_n():
+    with open_robot("mock://?fail_at_point=30") as robot:
+        robot.set_tool(TOOL)
+        path = weld_line(50)
+        robot.move_linear(path[0], speed_mm_s=200).wait(5.0)
+        robot.upload_path(path)
+        h = robot.run_weld(10.0)
+        with pytest.raises(RobotFault, match=r"failed \(controller error 40\) after path point 29"):
+            h.wait(5.0)
+        assert not robot.mock.arc_on
+        st = robot.status()
+        assert (st["error"], st["motion_state"], st["arc_on"]) == (40, "fault", False)
+        kinds = [e["kind"] for e in robot.mock.executed]
+        assert kinds.count("weld") == 1
+
+
+class DropAt(MockController):
+    """Does something nasty when path slot ``at`` arrives (in the mock's own thread)."""
+
+    def __init__(self, at: int, what: str, **kw) -> None:
+        super().__init__(**kw)
+        self.at, self.what, self.fired = at, what, False
+
+    def _cmd_XP(self, a, after):
+        reply = super()._cmd_XP(a, after)
+        if not self.fired and a and a[0] == str(self.at):
+            self.fired = True
+            if self.what == "disconnect":
+                self.disconnect(wait=False)  # the reply is lost with the line
+            else:
+                self.restart()
+        return reply
+
+
+def _robot_on(mock: MockController, **kw):
+    path = mock.serve_pty()
+    robot = open_robot(path, ack_timeout_s=0.1, status_poll_s=0.3, **kw)
+    robot._owned.append(mock)
+    robot.mock = mock
+    return robot
+
+
+def test_reconnect_mid_path_resumes_without_replaying():
+    mock = DropAt(50, "disconnect")
+    with _robot_on(mock) as robot:
+        robot.set_tool(TOOL)
+        path = weld_line(100)
+        robot.move_linear(path[0], speed_mm_s=200).wait(5.0)
+        robot.upload_path(path)
+        assert mock.fired and robot.link.stats["reconnects"] >= 1
+        assert mock.link_stats["duplicates_suppressed"] >= 1  # XP 50 answered from memory
+        h = robot.run_weld(10.0)
+        h.wait(10.0)
+        assert h.progress == 100
+        runs = collections.Counter(e["mid"] for e in mock.executed)
+        assert max(runs.values()) == 1 and [e["kind"] for e in mock.executed] == [
+            "move_linear", "weld"]
+
+
+def test_controller_restart_mid_path_is_reported_and_nothing_replayed():
+    mock = DropAt(50, "restart")
+    with _robot_on(mock) as robot:
+        robot.set_tool(TOOL)
+        path = weld_line(100)
+        robot.move_linear(path[0], speed_mm_s=200).wait(5.0)
+        with pytest.raises(LinkError, match="controller restarted"):
+            robot.upload_path(path)
+        with pytest.raises(SafetyError, match="no path uploaded"):
+            robot.run_weld(10.0)
+        assert "arc_on" not in mock.action_log
+        assert [e["kind"] for e in mock.executed] == ["move_linear"]
+        # a new session was opened: the tool and the path go again, and the weld runs once
+        robot.set_tool(TOOL)
+        robot.upload_path(path)
+        robot.run_weld(10.0).wait(10.0)
+        assert [e["kind"] for e in mock.executed] == ["move_linear", "weld"]
+
+
+def test_lost_completion_event_is_recovered_from_status():
+    class NoEvents(MockController):
+        def _event(self, body):
+            if body.startswith("IP"):
+                self._event_seq = (self._event_seq + 1) % 100
+                return  # swallowed
+            super()._event(body)
+
+    with _robot_on(NoEvents()) as robot:
+        h = robot.move_joints([10, 0, 0, 0, 30, 0], speed_mm_s=200)
+        h.wait(5.0)
+        assert h.state == "done"
+
+
+def test_safety_checks_happen_before_any_byte():
+    with open_robot("mock://") as robot:
+        robot.set_tool(TOOL)
+        path = weld_line(5)
+        path[2] = path[2] @ make_pose(t_mm=[0.0, 0.0, -5000.0])
+        before = robot.mock.link_stats["bytes_rx"]
+        with pytest.raises(SafetyError, match="path point 3"):
+            robot.upload_path(path)
+        with pytest.raises(SafetyError, match="speed"):
+            robot.move_joints([0, 0, 0, 0, 30, 0], speed_mm_s=5000)
+        with pytest.raises(SafetyError, match="buffer holds 250"):
+            robot.upload_path(weld_line(251))
+        assert robot.mock.link_stats["bytes_rx"] == before
+
+
+class FakePort:
+    def __init__(self, data: bytes) -> None:
+        self.data = bytearray(data)
+
+    def write(self, b: bytes) -> int:
+        return len(b)
+
+    def read(self, n: int) -> bytes:
+        out = bytes(self.data[:n])
+        del self.data[:n]
+        return out
+
+    @property
+    def in_waiting(self) -> int:
+        return len(self.data)
+
+    def close(self) -> None:
+        pass
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.binary(max_size=200))
+def test_fuzz_client_reply_parser(data):
+    link = AbbLink("loop://", ack_timeout_s=0.001, retries=0)
+    link._port = FakePort(data)
+    try:
+        reply = link.request("RJ", timeout_s=0.05)
+    except LinkError:  # ProtocolError is a LinkError
+        return
+    # only a well-formed reply to our seq gets through
+    assert isinstance(reply, codec.Reply) and reply.seq == 1
+
+
+def _soak_module():
+    path = Path(__file__).resolve().parents[1] / "bench" / "soak_link.py"
+    spec = importlib.util.spec_from_file_location("soak_link", path)
+    assert spec and spec.loader
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_short_soak_nothing_lost_nothing_twice():
+    r = _soak_module().run_soak(requests=300, corrupt=0.02, drop=0.01, dup=0.01, seed=11,
+                                ack_timeout_s=0.03)
+    assert r["requests"] >= 300 and r["motions_accepted"] >= 15
+    assert r["lost"] == 0 and r["executed_twice"] == 0 and r["unreported"] == 0
+    assert r["wrong_position"] == 0
+    assert r["retransmissions"] > 0  # the faults really happened
