@@ -20,6 +20,7 @@ from controller.errors import SeamguideError
 # OpenCV and the vision stack).
 COMMAND_MODULES: tuple[str, ...] = (
     "controller.cli_geometry",
+    "controller.cli_robot",
     "controller.cli_cycle",
     "controller.cli_daemon",
     "controller.cli_calibrate",
