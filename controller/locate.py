@@ -18,7 +18,7 @@ from controller.camera_model import CameraModel
 from controller.epipolar import match_curves, point_on_polyline, relative_pose
 from controller.errors import InputError, TriangulationError
 from controller.seam_curve import arc_length, resample_curve, smooth_curve
-from controller.triangulate import PolylineDistance, ray_gap, resample_polyline, triangulate_rays
+from controller.triangulate import PolylineDistance, resample_polyline, triangulate_rays
 
 F64 = NDArray[np.float64]
 
@@ -111,7 +111,6 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     T0 = np.asarray(views[0].T_base_cam, dtype=np.float64)
     origins[0], dirs[0] = views[0].camera.pixel_rays(ref_px, T0)
     valid[0] = True
-    directions_t: list[float] = []
     for k in range(1, V):
         Tk = np.asarray(views[k].T_base_cam, dtype=np.float64)
         m = match_curves(normalized[0], normalized[k], relative_pose(T0, Tk), limits.min_angle_deg)
@@ -124,9 +123,6 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         valid[k] = good
         degenerate_any |= m.degenerate
         matched_any |= np.isfinite(m.t)
-        ts = m.t[good]
-        if len(ts) > 2:
-            directions_t.append(float(np.sign(ts[-1] - ts[0])))
     valid[0] = valid[1:].any(axis=0)
     X, rms_gap, angle = triangulate_rays(origins, dirs, valid)
     ok = np.isfinite(X[:, 0])
@@ -161,7 +157,7 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     in_span[span] = True
     coverage = float((s_ref[last] - s_ref[first]) / max(s_ref[-1], 1e-9))
     degenerate_fraction = float(np.mean(degenerate_any[span] & ~ok[span]))
-    endpoint_gaps = _endpoint_gaps(views, curves, directions_t)
+    endpoint_gaps = _endpoint_gaps(views, curves, dense)
     quality = {
         "views": V,
         "points_triangulated": int(ok.sum()),
@@ -187,29 +183,28 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
                   reprojection_px=reproj, angle_deg=angle[span], quality=quality)
 
 
-def _endpoint_gaps(views: list[ViewObservation], curves: list[F64],
-                   directions_t: list[float]) -> list[float]:
-    """Ray gap (mm) between the reference curve's end points and the other views' ends.
+def _endpoint_gaps(views: list[ViewObservation], curves: list[F64], dense: F64) -> list[float]:
+    """Per end of the located seam: how far (mm) any view's end ray passes from the 3D end point.
 
-    End points are real image features where the seam meets the sheet borders; unlike matched
-    curve points (whose rays meet by construction) their rays only meet when the calibration and
-    poses are right, so this gap catches a wrong hand-eye.
+    End points are real image features (where the seam meets the sheet borders). Matched curve
+    points meet by construction, but the views' end rays only pass through the located ends when
+    every view saw the seam end at the same place *and* the calibration and poses are right: a
+    detection that stopped short, or a wrong hand-eye, shows here. Ends on the image border are
+    not real ends and are skipped.
     """
     gaps: list[float] = []
-    v0 = views[0]
-    for k in range(1, len(views)):
-        if k - 1 >= len(directions_t):
-            continue
-        flip = directions_t[k - 1] < 0
-        for end in (0, -1):
-            other_end = (-1 - end) if flip else end
-            p0, pk = curves[0][end], curves[k][other_end]
-            if not (v0.camera.in_image(p0[None], 3.0)[0]
-                    and views[k].camera.in_image(pk[None], 3.0)[0]):
+    for end3d in (dense[0], dense[-1]):
+        worst = 0.0
+        for v, c in zip(views, curves, strict=True):
+            uv = v.camera.project(end3d[None], v.T_base_cam)[0]
+            ends = c[[0, -1]]
+            px = ends[int(np.argmin(np.linalg.norm(ends - uv, axis=1)))]
+            if not v.camera.in_image(px[None], 3.0)[0]:
                 continue
-            o0, d0 = v0.camera.pixel_rays(p0[None], v0.T_base_cam)
-            ok_, dk = views[k].camera.pixel_rays(pk[None], views[k].T_base_cam)
-            gaps.append(ray_gap(o0, d0[0], ok_, dk[0]))
+            o, d = v.camera.pixel_rays(px[None], v.T_base_cam)
+            r = end3d - o
+            worst = max(worst, float(np.linalg.norm(r - np.dot(r, d[0]) * d[0])))
+        gaps.append(worst)
     return gaps
 
 
@@ -247,9 +242,10 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
                         f"detected curves (limits {lim.max_reprojection_rms_px} / "
                         f"{lim.max_reprojection_px} px)")
     if q["endpoint_gap_mm"] and max(q["endpoint_gap_mm"]) > lim.max_endpoint_gap_mm:
-        problems.append(f"the seam's end points seen in the views miss each other by "
+        problems.append(f"the views disagree about where the seam ends by "
                         f"{max(q['endpoint_gap_mm']):.2f} mm (limit {lim.max_endpoint_gap_mm} mm):"
-                        f" the hand-eye calibration or the view poses are probably wrong")
+                        f" either a detection stopped short of the seam's end (see the overlays)"
+                        f" or the hand-eye calibration or view poses are wrong")
     if q.get("distance_from_nominal_mm_max", 0.0) > q.get("nominal_radius_mm", np.inf):
         problems.append(f"the seam lies up to {q['distance_from_nominal_mm_max']:.1f} mm from the "
                         f"job's nominal seam centre, outside its {q['nominal_radius_mm']:.0f} mm "

@@ -80,7 +80,7 @@ def test_wrong_pose_of_one_view_is_caught_by_end_point_gap():
     # change of scale that no two-view check can see: see the nominal region check)
     wrong = poses[1] @ make_pose(rotation_about([0, 0, 1], 0.0), [5.0, 0, 0])
     obs[1] = ViewObservation(obs[1].camera, wrong, obs[1].seam_px, "view2")
-    with pytest.raises(TriangulationError, match="end points") as info:
+    with pytest.raises(TriangulationError, match="where the seam ends") as info:
         locate_seam(obs)
     assert max(info.value.details["quality"]["endpoint_gap_mm"]) > 1.0
 
