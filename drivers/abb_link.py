@@ -405,9 +405,8 @@ class AbbRobot(Robot):
     def close(self) -> None:
         """Close the link (and stop an in-process mock this robot owns)."""
         self.link.close()
-        for thing in self._owned:
+        for thing in self._owned:  # stop() is idempotent; open() serves the mock again
             thing.stop()
-        self._owned.clear()
 
     def identify(self) -> dict[str, Any]:
         """``ID`` again (a cheap ping) and the session facts."""
