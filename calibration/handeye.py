@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
+from threadpoolctl import threadpool_limits
 
 from controller.camera_model import CameraModel
 from controller.errors import CalibrationError
@@ -499,8 +500,12 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
                         sigma_rad)
         p = prob.x0()
         if refine:
-            sol = least_squares(prob.residuals, p, jac=prob.jac, loss=loss, f_scale=3.0,
-                                method="trf", x_scale="jac", tr_solver="exact", max_nfev=100)
+            # One BLAS thread: the SVDs here are ~2000 x 150; threads only add contention (a
+            # 2-core machine shared with other jobs ran this 10x slower with the default).
+            with threadpool_limits(limits=1, user_api="blas"):
+                sol = least_squares(prob.residuals, p, jac=prob.jac, loss=loss, f_scale=3.0,
+                                    method="trf", x_scale="jac", tr_solver="exact",
+                                    max_nfev=100)
             p = sol.x
         X, Y, intr_new, D = prob.unpack(p)
         intr = intr_new

@@ -575,9 +575,11 @@ def run_teach(robot: TeachRobot, camera: TeachCamera, board: BoardSpec, *,
             cv2.imwrite(str(folder / f"{name}.png"), image)
             from controller.jsonio import atomic_write_text, dumps
 
-            doc = (view_to_dict(f"{name}.png", joints_deg=rec.joints_deg)
-                   if rec.joints_deg is not None else
-                   view_to_dict(f"{name}.png", T_base_flange=rec.T_base_flange))
+            # The flange pose the solve uses (the controller's), so that the folder solves again
+            # to the same answer; the joints go along for the record.
+            doc = view_to_dict(f"{name}.png", T_base_flange=rec.T_base_flange)
+            if rec.joints_deg is not None:
+                doc["recorded_joints_deg"] = [round(float(v), 6) for v in rec.joints_deg]
             atomic_write_text(folder / f"{name}.json", dumps(doc))
         found = (f"board found ({len(rec.detection)} corners)" if rec.detection is not None
                  else "NO BOARD: not used (is the whole board in the image?)")

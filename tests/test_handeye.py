@@ -1,0 +1,174 @@
+import numpy as np
+import pytest
+
+from calibration.handeye import (
+    CLOSED_FORM_METHODS,
+    Observation,
+    closed_form,
+    opencv_calibrate_hand_eye,
+    solve_hand_eye,
+    view_residuals,
+)
+from calibration.targets import parse_board_spec
+from controller.camera_model import default_camera
+from controller.errors import CalibrationError
+from controller.poses import invert, make_pose, pose_error, rotation_about, transform_points
+from drivers.sim_board import default_board_pose, default_hand_eye, look_at, perturb
+
+CAM = default_camera(640, 480)
+BOARD = parse_board_spec("chessboard:9x6:20")
+X_TRUE = default_hand_eye()
+Y_TRUE = default_board_pose(BOARD)
+
+
+def session(n=14, seed=0, noise_px=0.05, sigma_mm=0.05, sigma_deg=0.01, eye_to_hand=False,
+            bad=()):
+    """Corner observations without rendering: true projections plus noise."""
+    rng = np.random.default_rng(seed)
+    obj = BOARD.object_points()
+    centre = Y_TRUE[:3, :3] @ obj.mean(axis=0) + Y_TRUE[:3, 3]
+    A, obs, true_A = [], [], []
+    T_base_cam_fixed = look_at(np.array([1500.0, -300, 1000]), np.array([1000.0, 0, 650]), 0.0,
+                               up=np.array([0, 0, 1.0]))
+    Rfb = rotation_about([1, 0, 0], np.pi)
+    Y_e2h = make_pose(Rfb, np.array([0, 0, 150.0]) - Rfb @ obj.mean(axis=0))
+    i = 0
+    while len(A) < n:
+        i += 1
+        if eye_to_hand:
+            R = rotation_about([np.cos(2.4 * i), np.sin(2.4 * i), 0], np.radians(
+                rng.uniform(15, 40))) @ rotation_about([0, 0, 1], rng.uniform(-0.6, 0.6))
+            c = obj.mean(axis=0)
+            T_cb = make_pose(R, np.array([rng.uniform(-30, 30), rng.uniform(-20, 20),
+                                          rng.uniform(280, 360)]) - R @ c)
+            T_bf = T_base_cam_fixed @ T_cb @ invert(Y_e2h)
+        else:
+            az, tilt = 2.4 * i, np.radians(rng.uniform(20, 45))
+            eye = centre + rng.uniform(280, 360) * np.array(
+                [np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), np.cos(tilt)])
+            target = centre + np.array([rng.uniform(-40, 40), rng.uniform(-30, 30), 0])
+            T_bc = look_at(eye, target, rng.uniform(-0.6, 0.6))
+            T_bf = T_bc @ invert(X_TRUE)
+            T_cb = invert(T_bc) @ Y_TRUE
+        uv = CAM.project_cam(transform_points(T_cb, obj))
+        if not np.all(np.isfinite(uv)) or uv.min() < 5 or uv[:, 0].max() > 635 or \
+                uv[:, 1].max() > 475:
+            continue
+        rec = perturb(T_bf, rng, sigma_mm, sigma_deg)
+        if len(A) in bad:
+            rec[:3, 3] += [1.0, -0.8, 0.6]
+            rec[:3, :3] = rec[:3, :3] @ rotation_about([0.3, 1, 0], np.radians(0.25))
+        A.append(rec)
+        true_A.append(T_bf)
+        obs.append(Observation(uv + rng.normal(0, noise_px, uv.shape), obj))
+    truth = (T_base_cam_fixed, Y_e2h) if eye_to_hand else (X_TRUE, Y_TRUE)
+    return A, obs, truth
+
+
+@pytest.mark.parametrize("method", list(CLOSED_FORM_METHODS))
+def test_opencv_wrapper_conventions_exact(method):
+    A, obs, (X, Y) = session(n=6, noise_px=0, sigma_mm=0, sigma_deg=0)
+    T_cb = [invert(X) @ invert(a) @ Y for a in A]
+    Xs = opencv_calibrate_hand_eye(A, T_cb, method)
+    assert pose_error(Xs, X)[0] < 1e-3 and pose_error(Xs, X)[1] < 1e-4
+    Xc, Yc = closed_form(A, T_cb, method=method)
+    assert pose_error(Yc, Y)[0] < 1e-2
+
+
+def test_unknown_method():
+    with pytest.raises(CalibrationError, match="unknown hand-eye method"):
+        opencv_calibrate_hand_eye([np.eye(4)] * 3, [np.eye(4)] * 3, "magic")
+
+
+def test_joint_refinement_accuracy_and_report():
+    A, obs, (X, Y) = session(n=16)
+    r = solve_hand_eye(A, obs, CAM)
+    d_mm, d_deg = pose_error(r.T_flange_cam, X)
+    assert d_mm < 0.2 and d_deg < 0.03
+    assert pose_error(r.T_base_board, Y)[0] < 0.5
+    assert r.rejected_views == [] and len(r.used_views) == 16
+    assert r.residual_px < 0.6 and r.consistency_mm < 0.15 and r.consistency_deg < 0.03
+    assert set(r.closed_form) == set(CLOSED_FORM_METHODS)
+    rep = r.report()
+    assert rep["mode"] == "eye-in-hand" and "T_flange_cam" in rep
+    # A view's residual under the solution (as held-out validation uses it).
+    res = view_residuals(r, A[0], obs[0])
+    assert res.shape == (54, 2) and np.sqrt(np.mean(res ** 2)) < 1.0
+
+
+def test_bad_views_named_and_left_out():
+    A, obs, (X, Y) = session(n=16, bad=(3, 11))
+    names = [f"v{i}" for i in range(16)]
+    r = solve_hand_eye(A, obs, CAM, names=names)
+    assert sorted(x["view"] for x in r.rejected_views) == ["v11", "v3"]
+    assert all("recorded robot pose" in x["reason"] for x in r.rejected_views)
+    assert pose_error(r.T_flange_cam, X)[0] < 0.25
+    # The plain closed form on all views is pulled off by the two bad views.
+    assert pose_error(r.closed_form["tsai"], X)[0] > pose_error(r.T_flange_cam, X)[0]
+
+
+def test_refine_intrinsics():
+    A, obs, (X, Y) = session(n=16, seed=2)
+    K = CAM.K.copy()
+    K[0, 0] *= 1.004
+    K[1, 1] *= 1.004
+    from controller.camera_model import CameraModel
+
+    wrong = CameraModel(640, 480, K, CAM.dist)
+    r = solve_hand_eye(A, obs, wrong, refine_intrinsics=True)
+    assert abs(r.camera.fx / CAM.fx - 1) < 0.001
+    assert pose_error(r.T_flange_cam, X)[0] < 0.3
+
+
+def test_eye_to_hand():
+    A, obs, (X, Y) = session(n=14, eye_to_hand=True, seed=3)
+    r = solve_hand_eye(A, obs, CAM, eye_to_hand=True)
+    assert r.T_flange_cam is None and r.T_base_cam is not None
+    d_mm, d_deg = pose_error(r.T_base_cam, X)
+    assert d_mm < 1.0 and d_deg < 0.05
+    assert pose_error(r.T_flange_board, Y)[0] < 1.0
+
+
+def test_pose_only_input():
+    A, obs, (X, Y) = session(n=12, noise_px=0, sigma_mm=0.02, sigma_deg=0.005)
+    T_cb = [invert(X) @ invert(a) @ Y for a in A]
+    r = solve_hand_eye(A, T_cb, None)
+    assert pose_error(r.T_flange_cam, X)[0] < 0.3 and r.camera is None
+
+
+def test_too_few_views():
+    A, obs, _ = session(n=4)
+    with pytest.raises(CalibrationError, match=r"at least 5 good views, got 4 \(view01"):
+        solve_hand_eye(A, obs, CAM)
+
+
+def test_robot_did_not_move():
+    A, obs, _ = session(n=6)
+    A = [A[0].copy() for _ in A]
+    with pytest.raises(CalibrationError, match="robot did not move: views view01, view02"):
+        solve_hand_eye(A, obs, CAM)
+
+
+def test_pure_translation_is_degenerate():
+    A, obs, _ = session(n=6)
+    A2 = [A[0].copy() for _ in A]
+    for k, T in enumerate(A2):
+        T[:3, 3] += [20.0 * k, -10.0 * k, 5.0 * k]
+    with pytest.raises(CalibrationError, match="too little rotation between views view01"):
+        solve_hand_eye(A2, obs, CAM)
+
+
+def test_single_axis_rotation_is_degenerate():
+    A, obs, _ = session(n=6)
+    A2 = [A[0] @ make_pose(rotation_about([0, 0, 1], np.radians(10 * k))) for k in range(6)]
+    with pytest.raises(CalibrationError, match="rotate only about one axis"):
+        solve_hand_eye(A2, obs, CAM)
+
+
+def test_bad_residuals_refused():
+    A, obs, _ = session(n=10)
+    wrong = parse_board_spec("chessboard:9x6:21").object_points()  # wrong square size
+    obs = [Observation(o.image_points, wrong) for o in obs]
+    with pytest.raises(CalibrationError, match="hand-eye refused") as e:
+        solve_hand_eye(A, obs, CAM, max_consistency_mm=0.2)
+    assert "view" in str(e.value)
