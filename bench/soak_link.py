@@ -13,6 +13,7 @@ identify). At the end the mock's log of executed motions is compared with what t
 
     .venv/bin/python bench/soak_link.py                     # 10,000 requests, 2 % bytes, 1 % lines
     .venv/bin/python bench/soak_link.py --requests 2000 --corrupt 0.05
+    .venv/bin/python bench/soak_link.py --weld-cycle        # link time of one weld cycle
 
 Prints one JSON object. The link figures (bytes, retransmissions) come from the client and mock.
 """
@@ -108,6 +109,54 @@ def run_soak(requests: int = 10_000, corrupt: float = 0.02, drop: float = 0.01,
     }
 
 
+def run_weld_cycle(baud: int = 0, points: int = 100) -> dict[str, Any]:
+    """One weld cycle's link traffic: two views, tool, a ``points``-point path, the weld.
+
+    Views: ``move_joints`` + wait + ``read_joints`` + ``read_pose`` each; then ``set_tool``, a
+    ``move_linear`` approach, ``upload_path`` and ``run_weld`` (one progress event per point), and
+    a final ``status``. Motion is instantaneous (time_scale=0); with ``baud`` > 0 every byte takes
+    its wire time for real, so the elapsed time is the link time as the client sees it.
+    """
+    from controller.kinematics import flange_pose, irb2400
+    from controller.poses import make_pose
+
+    tool = make_pose(t_mm=[0.0, 0.0, 300.0])
+    start = flange_pose(irb2400(), [0.0, 10.0, 0.0, 0.0, 60.0, 0.0]) @ tool
+    path = [start @ make_pose(t_mm=[0.0, 2.0 * i - 100.0, 0.0]) for i in range(points)]
+    views = ([20.0, 5.0, 5.0, 0.0, 60.0, 0.0], [-20.0, 5.0, 5.0, 0.0, 60.0, 0.0])
+    t0 = time.perf_counter()
+    with open_robot(f"mock://?baud={baud}", timeout_s=60.0) as robot:
+        mock = robot.mock
+        t_open = time.perf_counter()
+        for v in views:
+            robot.move_joints(v, speed_mm_s=200.0).wait(60.0)
+            robot.read_joints()
+            robot.read_pose()
+        robot.set_tool(tool)
+        robot.move_linear(path[0], speed_mm_s=100.0).wait(60.0)
+        t_up = time.perf_counter()
+        robot.upload_path(path)
+        t_weld = time.perf_counter()
+        h = robot.run_weld(10.0)
+        h.wait(120.0)
+        robot.status()
+        t_end = time.perf_counter()
+        st = dict(mock.link_stats)
+        retrans = robot.link.stats["retransmissions"]
+    total = st["bytes_rx"] + st["bytes_tx"]
+    return {
+        "baud": baud, "path_points": points, "requests": st["requests"],
+        "lines_to_controller": st["lines_rx"], "lines_from_controller": st["lines_tx"],
+        "bytes_to_controller": st["bytes_rx"], "bytes_from_controller": st["bytes_tx"],
+        "computed_wire_s_9600": round(10.0 * total / 9600, 2),
+        "computed_wire_s_19200": round(10.0 * total / 19200, 2),
+        "measured_cycle_s": round(t_end - t_open, 2),
+        "measured_upload_s": round(t_weld - t_up, 2),
+        "measured_open_s": round(t_open - t0, 2),
+        "retransmissions": retrans,
+    }
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--requests", type=int, default=10_000)
@@ -116,7 +165,14 @@ def main() -> int:
     ap.add_argument("--dup", type=float, default=0.0)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--retries", type=int, default=40)
+    ap.add_argument("--weld-cycle", action="store_true",
+                    help="instead of the soak: the link time of one weld cycle (2 views, "
+                    "100-point path) computed from the bytes and measured at 9600 and 19200 baud")
     args = ap.parse_args()
+    if args.weld_cycle:
+        out = [run_weld_cycle(0)] + [run_weld_cycle(b) for b in (9600, 19200)]
+        print(json.dumps(out, indent=2))
+        return 0
     result = run_soak(args.requests, args.corrupt, args.drop, args.dup, args.seed,
                       retries=args.retries)
     print(json.dumps(result, indent=2))

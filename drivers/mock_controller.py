@@ -6,9 +6,10 @@ time at the commanded speed (times ``time_scale``; 0 makes them instantaneous, b
 still reported by an event after the reply), joint limits and unreachable targets are refused with
 an error reply, the tool frame is applied, the arc output is switched, a path is executed point by
 point with progress events. Fault injection, seeded: corrupted bytes, dropped and duplicated lines
-(both directions), slow replies (``delay_ms``), a simulated baud rate (bytes take time and are
-counted), a controller error at path point N (``fail_at_point``), disconnects (:meth:`disconnect`)
-and controller restarts (:meth:`restart`); the operator's cycle request is :meth:`request_cycle`.
+(both directions), slow replies (``delay_ms``), a simulated baud rate (every byte takes 10/baud s
+of real time; bytes are counted so :meth:`MockController.link_time_s` computes the wire time),
+a controller error at path point N (``fail_at_point``), disconnects (:meth:`disconnect`) and
+controller restarts (:meth:`restart`); the operator's cycle request is :meth:`request_cycle`.
 
 It is served on a real pseudo-terminal (``os.openpty``) with a stable symlink path by
 :meth:`MockController.serve_pty`, in a thread, so the client's pyserial code runs for real.
@@ -60,8 +61,8 @@ MOCK_OPTIONS: dict[str, str] = {
     "corrupt": "probability that a byte is corrupted, each direction (0..1)",
     "dup": "probability that a line is duplicated, each direction (0..1)",
     "delay_ms": "extra delay of every reply (ms, real time)",
-    "baud": "simulated baud rate (0 = infinitely fast); bytes are counted, and take "
-            "10/baud s each times time_scale",
+    "baud": "simulated baud rate (0 = infinitely fast): every byte takes 10/baud s of real "
+            "time in each direction (8N1), whatever time_scale is",
     "time_scale": "real seconds per simulated second (0 = instantaneous)",
     "fail_at_point": "controller error when the weld reaches this path point (1-based)",
     "capacity": "path buffer capacity in points (default 250, as the RAPID module)",
@@ -220,7 +221,7 @@ class MockController:
                 os.write(self._wake_w, b"x")
 
     def _tx_time(self, n: int) -> float:
-        return 10.0 * n / self.baud * self.time_scale if self.baud else 0.0
+        return 10.0 * n / self.baud if self.baud else 0.0
 
     def _corrupt(self, data: bytes) -> bytes:
         if self.corrupt <= 0:
@@ -776,8 +777,7 @@ def open_mock_robot(url: str, *, limits: Any = None, timeout_s: float = 5.0,
     if parsed.netloc or parsed.path not in ("", "/"):
         raise ConfigError(f"mock URL {url!r} takes options only: mock://?seed=7&drop=0.01")
     mock = MockController(**parse_mock_options(parsed.query))
-    ts = mock.time_scale
-    wire = line_time_s(2 * (codec.MAX_LINE + 1), mock.baud) * ts if mock.baud else 0.0
+    wire = line_time_s(2 * (codec.MAX_LINE + 1), mock.baud)
     link_options.setdefault("ack_timeout_s", 0.15 + mock.delay_s + wire)
     link_options.setdefault("status_poll_s", max(0.3, 4 * link_options["ack_timeout_s"]))
     link_options.setdefault("session", 1 + mock.seed % 999)

@@ -4,6 +4,8 @@ pseudo-terminal serving."""
 from __future__ import annotations
 
 import os
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -239,3 +241,53 @@ def test_served_on_a_pty_with_a_stable_symlink(tmp_path):
     (tmp_path / "plain").write_text("x")
     with pytest.raises(ConfigError, match="not a symlink"):
         MockController().serve_pty(str(tmp_path / "plain"))
+
+
+# ---- the RAPID module and the mock agree ---------------------------------------------------
+
+RAPID = (Path(__file__).resolve().parents[1] / "drivers" / "rapid" / "SGSERVER.mod").read_text()
+
+
+def _rapid_string(name: str) -> str:
+    m = re.search(rf'CONST string {name} := "((?:[^"]|"")*)";', RAPID)
+    assert m, name
+    return m.group(1).replace('""', '"').replace("\\\\", "\\")
+
+
+def test_rapid_character_tables_cover_printable_ascii():
+    p1, p2 = _rapid_string("PRINT1"), _rapid_string("PRINT2")
+    assert len(p1) <= 80 and len(p2) <= 80
+    assert p1 + p2 == "".join(chr(c) for c in range(32, 127))
+
+
+def test_rapid_checksum_transliterated_matches_the_codec():
+    p1, p2 = _rapid_string("PRINT1"), _rapid_string("PRINT2")
+
+    def char_code(c: str) -> int:  # as CharCode in the module: StrMatch in the two tables
+        return 31 + p1.index(c) + 1 if c in p1 else 79 + p2.index(c) + 1
+
+    def rapid_checksum(s: str) -> str:
+        s1 = s2 = 0
+        for c in s:
+            s1 = (s1 + char_code(c)) % 255
+            s2 = (s2 + s1) % 255
+        hexd = _rapid_string("HEX")
+        return "".join(hexd[n // 16] + hexd[n % 16] for n in (s2, s1))
+
+    for kind, seq, body in [("Q", 1, "ID"), ("A", 99, 'OK "quote" \\ back`slash ~')]:
+        head = f"{kind}{seq:02d} {body}"
+        assert rapid_checksum(head) == codec.checksum(head)
+
+
+def test_rapid_and_mock_serve_the_same_requests_and_errors():
+    rapid_cmds = set(re.findall(r'c = "([A-Z]{2})"', RAPID))
+    mock_cmds = {n[len("_cmd_"):] for n in dir(MockController) if n.startswith("_cmd_")}
+    assert rapid_cmds == mock_cmds
+    src = (Path(__file__).resolve().parents[1] / "drivers" / "mock_controller.py").read_text()
+    rapid_codes = {int(c) for c in re.findall(r'"ER (\d\d) ', RAPID)}
+    mock_codes = {int(c) for c in re.findall(r"error_body\((\d\d),", src)}
+    assert rapid_codes == mock_codes
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "protocol.md").read_text()
+    doc_codes = {int(c) for c in re.findall(r"^\| (\d\d) \|", doc, re.M)}
+    assert mock_codes <= doc_codes
+    assert '"ER 10 bad line"' in RAPID and "CAPACITY := 250" in RAPID
