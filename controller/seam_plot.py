@@ -33,7 +33,8 @@ def seam_plot_png(seam_mm: NDArray[np.float64], path_mm: NDArray[np.float64] | N
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
     ax.set_zlabel("z (mm)")
-    ax.legend(loc="upper left", fontsize=8)
+    if path_mm is not None or error_mm is None:
+        ax.legend(loc="upper left", fontsize=8)
     if error_mm is not None:
         ax2 = fig.add_subplot(1, 2, 2)
         along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(s, axis=0), axis=1))])
