@@ -292,26 +292,64 @@ def _order_pixels(xs: NDArray[Any], ys: NDArray[Any], w: NDArray[Any]) -> F64 | 
     nb = int(bins.max()) + 1
     if nb < 8:
         return None
-    # Per bin: weighted mean of the offsets of the strongest pixels (within 1.5 px of the best).
-    order = np.lexsort((-w, bins))
-    first = np.ones(len(order), bool)
-    first[1:] = bins[order][1:] != bins[order][:-1]
-    best_o = np.full(nb, np.nan)
-    best_o[bins[order][first]] = o[order][first]
-    near = np.abs(o - best_o[bins]) <= 1.5
-    num = np.bincount(bins[near], weights=(w * o)[near], minlength=nb)
-    den = np.bincount(bins[near], weights=w[near], minlength=nb)
-    ok = den > 0
-    sb = (np.arange(nb) + 0.5) * 1.5 + s.min()
-    ob = num[ok] / den[ok]
-    sb = sb[ok]
-    if len(ob) >= 7:
-        med = _running_median(ob, 5)
-        keep = np.abs(ob - med) < 2.0
-        sb, ob = sb[keep], ob[keep]
-    if len(ob) < 8:
+    # Per bin, split the pixels into clusters of offsets (a crossing pen line or scratch adds a
+    # second cluster), then track the curve bin by bin from its strongest single-cluster bin,
+    # choosing the cluster that continues it (a branch is left behind).
+    order = np.lexsort((o, bins))
+    bo, oo, wo = bins[order], o[order], w[order]
+    new_cluster = np.ones(len(order), bool)
+    new_cluster[1:] = (bo[1:] != bo[:-1]) | (np.diff(oo) > 1.5)
+    cid = np.cumsum(new_cluster) - 1
+    cw = np.bincount(cid, weights=wo)
+    co = np.bincount(cid, weights=wo * oo) / cw
+    cb = bo[new_cluster]
+    per_bin: dict[int, list[int]] = {}
+    for k, b in enumerate(cb.tolist()):
+        per_bin.setdefault(b, []).append(k)
+    keys = sorted(per_bin)
+    single = [b for b in keys if len(per_bin[b]) == 1] or keys
+    best_track: dict[int, float] = {}
+    best_w = -1.0
+    # Several starts (a start on a junction with a branch can lose the curve); keep the strongest.
+    for q in (0.5, 0.2, 0.8):
+        start_bin = single[int(q * (len(single) - 1))]
+        track = _track_bins(keys, per_bin, co, cw, start_bin)
+        tw = float(sum(cw[k] for k in track.values()))
+        if tw > best_w:
+            best_track, best_w = track, tw
+    chosen = {b: float(co[k]) for b, k in best_track.items()}
+    kb = sorted(chosen)
+    if len(kb) < 8:
         return None
+    sb = (np.asarray(kb, np.float64) + 0.5) * 1.5 + s.min()
+    ob = np.asarray([chosen[b] for b in kb])
     return np.asarray(c + np.outer(sb, axis) + np.outer(ob, perp))
+
+
+def _track_bins(keys: list[int], per_bin: dict[int, list[int]], co: F64, cw: F64,
+                start_bin: int) -> dict[int, int]:
+    """Follow one curve through the bins from ``start_bin``: bin -> chosen cluster index."""
+    si = keys.index(start_bin)
+    k0 = max(per_bin[start_bin], key=lambda k: cw[k])
+    chosen = {start_bin: k0}
+    for direction in (1, -1):
+        hist = [(start_bin, float(co[k0]))]
+        i = si + direction
+        while 0 <= i < len(keys):
+            b = keys[i]
+            if abs(b - hist[-1][0]) > 12:
+                break  # a long hole: the curve ends here
+            if len(hist) >= 3:
+                (b1, o1), (b2, o2) = hist[-3], hist[-1]
+                pred = o2 + (o2 - o1) / (b2 - b1) * (b - b2)
+            else:
+                pred = hist[-1][1]
+            k = min(per_bin[b], key=lambda k: abs(co[k] - pred))
+            if abs(co[k] - pred) <= 2.0 + 0.3 * abs(b - hist[-1][0]):
+                chosen[b] = k
+                hist.append((b, float(co[k])))
+            i += direction
+    return chosen
 
 
 def _running_median(x: F64, k: int) -> F64:
@@ -433,10 +471,11 @@ def _fit_profiles(x: F64, prof: F64, iterations: int) -> tuple[F64, F64]:
     return prm, np.sqrt(cost / S)
 
 
-def _fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64,
-            p: DetectParams) -> dict[str, Any]:
+def _fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParams,
+            half_width: float | None = None) -> dict[str, Any]:
     """Fit the two-edge gap model to profiles across the curve at ``pts`` along normals ``nrm``."""
-    x = np.arange(-p.half_width_px, p.half_width_px + 1e-9, p.profile_step_px)
+    hw = p.half_width_px if half_width is None else half_width
+    x = np.arange(-hw, hw + 1e-9, p.profile_step_px)
     U = pts[:, 0:1] + nrm[:, 0:1] * x[None, :]
     V = pts[:, 1:2] + nrm[:, 1:2] * x[None, :]
     prof, inside = _bilinear(grey, lut, U, V)
@@ -484,24 +523,27 @@ def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -
             pts_run[~good, k] = np.interp(t[~good], t[good], pts_run[good, k])
         pts_run = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
     depth_med = float(np.median(fit["depth"][sel][ok]))
-    # Honest ends: probe every pixel beyond each end of the run, keep the last good one.
+    # Honest ends: where the sheets end (or the image does), found from the two sides separately.
+    w_med = float(np.median(fit["width"][sel][ok]))
     ends = []
+    keep = np.ones(len(pts_run), bool)
     for first in (True, False):
         e_pt = pts_run[0] if first else pts_run[-1]
         nb = pts_run[min(3, len(pts_run) - 1)] if first else pts_run[max(0, len(pts_run) - 4)]
         tang = e_pt - nb
         tang /= np.linalg.norm(tang) + 1e-12
-        ks = np.arange(1.0, 2 * p.step_px + 4)
-        probe = e_pt + np.outer(ks, tang)
-        nrm_e = np.tile([-tang[1], tang[0]], (len(ks), 1))
-        pf = _fit_at(grey, lut, probe, nrm_e, p)
-        okp = (pf["valid"] & (pf["depth"] > 0.5 * depth_med)
-               & (np.linalg.norm(pf["centre"] - probe, axis=1) < 2.0))
-        n_ok = int(np.argmin(okp)) if not okp.all() else len(okp)
-        ends.append(e_pt + tang * (ks[n_ok - 1] if n_ok else 0.0))
-    pts_run = np.vstack([ends[0], pts_run, ends[1]])
+        k_end = _end_offset(grey, lut, e_pt, tang, w_med)
+        end = e_pt + k_end * tang
+        along = (pts_run - e_pt) @ tang
+        keep &= along < k_end - 0.5 * p.step_px
+        ends.append(end)
+    body = pts_run[keep]
+    w_run = fit["width"][sel][keep]
+    if len(body) < 2:
+        c.why_rejected = "seam candidate collapsed when its ends were measured"
+        return
+    pts_run = np.vstack([ends[0], body, ends[1]])
     c.points = pts_run
-    w_run = fit["width"][sel]
     c.width = np.concatenate([[w_run[0]], w_run, [w_run[-1]]])
     c.depth = depth_med
     c.valid_frac = float(ok.mean())
@@ -512,6 +554,60 @@ def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -
         return
     c.length_px = length
     c.score = length * c.depth * c.valid_frac
+
+
+def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float) -> float:
+    """Distance (px, along ``tang``) from ``e_pt`` to the seam's end.
+
+    The end is where the sheets end. Each side of the gap is read on a line parallel to the
+    centreline just outside the gap; where a sheet border crosses that line the side's brightness
+    changes. A border crossing the seam at an angle reaches one side's line before the end and
+    the other's after it by the same distance, so the mean of the two crossings is the end. When
+    neither side changes, the seam runs out of the image (the end is the image border) or ends
+    where the profiles stopped fitting.
+    """
+    H, W = grey.shape
+    nrm = np.array([-tang[1], tang[0]])
+    ks = np.arange(-12.0, 16.01, 0.5)
+    q = e_pt + np.outer(ks, tang)
+    delta = w_med / 2 + 2.5
+    crossings = []
+    for sign in (-1.0, 1.0):
+        ps = q + sign * delta * nrm
+        val, _ = _bilinear(grey, lut, ps[:, 0], ps[:, 1])
+        val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
+        lvl_in = float(np.median(val[ks <= -6]))
+        lvl_out = float(np.median(val[ks >= 10]))
+        if abs(lvl_in - lvl_out) < 0.25 * max(lvl_in, 1e-6):
+            continue
+        half = 0.5 * (lvl_in + lvl_out)
+        sgn = np.sign(lvl_in - half)
+        inside_side = sgn * (val - half) > 0
+        j = int(np.argmin(inside_side[ks > -6])) + int(np.sum(ks <= -6))
+        if inside_side[j] or j == 0:
+            continue
+        v0, v1 = val[j - 1], val[j]
+        frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
+        crossings.append(float(ks[j - 1] + frac * (ks[j] - ks[j - 1])))
+    k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
+    if len(crossings) == 2:
+        k = 0.5 * (crossings[0] + crossings[1])
+    elif crossings:
+        k = crossings[0]
+    else:
+        k = k_border if k_border < ks[-1] else 0.0
+    return float(min(k, k_border))
+
+
+def _border_crossing(e_pt: F64, tang: F64, W: int, H: int, default: float) -> float:
+    """Distance along ``tang`` from ``e_pt`` (inside the image) to the image border (px)."""
+    ts = []
+    for lo, hi, x, d in ((-0.5, W - 0.5, e_pt[0], tang[0]), (-0.5, H - 0.5, e_pt[1], tang[1])):
+        if d > 1e-9:
+            ts.append((hi - x) / d)
+        elif d < -1e-9:
+            ts.append((lo - x) / d)
+    return float(min(ts)) if ts else default
 
 
 def _longest_bridged_run(valid: NDArray[np.bool_], bridge: int,

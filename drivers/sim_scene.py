@@ -286,7 +286,7 @@ def make_scene(kind: str, seed: int, difficulty: str = "medium", **overrides: An
     centre = np.asarray(overrides.get("centre_mm", DEFAULT_CENTRE_MM), dtype=np.float64)
     T_base_local = make_pose(rotation_about((0.0, 0.0, 1.0), yaw), centre)
 
-    albedo_a = float(overrides.get("albedo_a", u(g_look, (0.45, 0.8))))
+    albedo_a = float(overrides.get("albedo_a", u(g_look, (0.35, 0.7))))
     albedo_b = float(overrides.get("albedo_b", albedo_a * u(g_look, (0.55, 0.9))))
     if g_look.random() < 0.5 and "albedo_a" not in overrides and "albedo_b" not in overrides:
         albedo_a, albedo_b = albedo_b, albedo_a
