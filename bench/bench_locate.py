@@ -186,7 +186,8 @@ def fn_pub_full(imgs, tpx, poses, scene, cell):
 def summarise(rows):
     ok = [r for r in rows if r["ok"]]
     good = [r for r in ok if r["max_mm"] <= 0.5 and r["coverage"] >= 0.98]
-    med = (lambda k: float(np.median([r[k] for r in ok])) if ok else float("nan"))
+    def med(k):
+        return (float(np.median([r[k] for r in ok])) if ok else float("nan"))
     return {"n": len(rows), "success": len(ok) / len(rows), "within_spec": len(good) / len(rows),
             "rms_mm_median": med("rms_mm"),
             "rms_mm_p95": float(np.percentile([r["rms_mm"] for r in ok], 95)) if ok else None,

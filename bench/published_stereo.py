@@ -87,7 +87,7 @@ def epipolar_poly7(cam: CameraModel, px1: F64, T1: F64, px2: F64, T2: F64, n: in
 
 
 def closest_rays(cam: CameraModel, px1: F64, T1: F64, px2: F64, T2: F64, n: int = 300) -> F64:
-    """3D seam points (mm): for each sample of curve 1, the closest ray of all samples of curve 2."""
+    """3D seam points (mm): per sample of curve 1, the closest ray among all samples of curve 2."""
     c1, c2 = poly7_curve(px1, n), poly7_curve(px2, 3 * n)
     o1, d1 = _rays_pinhole(cam, c1, T1)
     o2, d2 = _rays_pinhole(cam, c2, T2)

@@ -21,7 +21,7 @@ from controller.cycle import CycleResult, WeldCycle
 from controller.errors import ReachabilityError
 from controller.job import Job, job_from_dict
 from controller.kinematics import inverse_kinematics, irb2400
-from controller.poses import invert
+from controller.poses import invert, make_pose, rotation_about
 from controller.triangulate import PolylineDistance
 from drivers.mock_controller import HOME_DEG as MOCK_HOME_DEG
 
@@ -49,15 +49,27 @@ class DryRunReport:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
+#: View 2 is rolled this much about its optical axis. Two views that differ by a rotation about
+#: one axis cannot show a wrong hand-eye transform (the reconstruction just shifts); rolling one
+#: view lets the quality checks catch a 5 mm hand-eye error in most cases (bench/bench_locate.py).
+VIEW2_ROLL_DEG = 90.0
+
+
 def view_joints(scene: Any, cell: Any, n: int = 2, near: tuple[float, ...] = HOME_JOINTS_DEG,
-                baseline_mm: float = 200.0) -> list[np.ndarray]:
-    """Controller joints (deg) of ``n`` suggested views of ``scene`` for the cell's camera mount."""
+                baseline_mm: float = 200.0, roll_deg: float = VIEW2_ROLL_DEG) -> list[np.ndarray]:
+    """Controller joints (deg) of ``n`` suggested views of ``scene`` for the cell's camera mount.
+
+    The views are displaced across the seam; view 2 is rolled by ``roll_deg`` about its optical
+    axis. Raises :class:`ReachabilityError` when a view cannot be reached.
+    """
     from drivers.sim_render import suggest_view_poses
 
     robot = irb2400()
     out = []
-    for i, T_base_cam in enumerate(suggest_view_poses(scene, cell.camera, n=n,
-                                                      baseline_mm=baseline_mm)):
+    poses = suggest_view_poses(scene, cell.camera, n=n, baseline_mm=baseline_mm)
+    if n >= 2:
+        poses[1] = poses[1] @ make_pose(rotation_about([0, 0, 1], np.radians(roll_deg)))
+    for i, T_base_cam in enumerate(poses):
         sols = inverse_kinematics(robot, T_base_cam @ invert(cell.T_flange_cam))
         if not sols:
             raise ReachabilityError(f"view {i + 1} of the simulated scene cannot be reached")
