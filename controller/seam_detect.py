@@ -300,9 +300,12 @@ def _order_pixels(xs: NDArray[Any], ys: NDArray[Any], w: NDArray[Any]) -> F64 | 
     new_cluster = np.ones(len(order), bool)
     new_cluster[1:] = (bo[1:] != bo[:-1]) | (np.diff(oo) > 1.5)
     cid = np.cumsum(new_cluster) - 1
-    cw = np.bincount(cid, weights=wo)
+    cw = np.asarray(np.bincount(cid, weights=wo), dtype=np.float64)
     co = np.bincount(cid, weights=wo * oo) / cw
     cb = bo[new_cluster]
+    starts_idx = np.flatnonzero(new_cluster)
+    cmin = np.minimum.reduceat(oo, starts_idx)
+    cmax = np.maximum.reduceat(oo, starts_idx)
     per_bin: dict[int, list[int]] = {}
     for k, b in enumerate(cb.tolist()):
         per_bin.setdefault(b, []).append(k)
@@ -313,11 +316,11 @@ def _order_pixels(xs: NDArray[Any], ys: NDArray[Any], w: NDArray[Any]) -> F64 | 
     # Several starts (a start on a junction with a branch can lose the curve); keep the strongest.
     for q in (0.5, 0.2, 0.8):
         start_bin = single[int(q * (len(single) - 1))]
-        track = _track_bins(keys, per_bin, co, cw, start_bin)
-        tw = float(sum(cw[k] for k in track.values()))
+        track = _track_bins(keys, per_bin, co, cw, cmin, cmax, start_bin)
+        tw = float(len(track))
         if tw > best_w:
             best_track, best_w = track, tw
-    chosen = {b: float(co[k]) for b, k in best_track.items()}
+    chosen = best_track
     kb = sorted(chosen)
     if len(kb) < 8:
         return None
@@ -326,28 +329,36 @@ def _order_pixels(xs: NDArray[Any], ys: NDArray[Any], w: NDArray[Any]) -> F64 | 
     return np.asarray(c + np.outer(sb, axis) + np.outer(ob, perp))
 
 
-def _track_bins(keys: list[int], per_bin: dict[int, list[int]], co: F64, cw: F64,
-                start_bin: int) -> dict[int, int]:
-    """Follow one curve through the bins from ``start_bin``: bin -> chosen cluster index."""
+def _track_bins(keys: list[int], per_bin: dict[int, list[int]], co: F64, cw: F64, cmin: F64,
+                cmax: F64, start_bin: int) -> dict[int, float]:
+    """Follow one curve through the bins from ``start_bin``: bin -> offset on the curve.
+
+    The next offset is predicted by a line through the last few accepted ones; in each bin the
+    cluster nearest the prediction is taken. Where a crossing line has merged with the curve
+    into one wide cluster, the prediction clipped to the cluster is used instead of its mean.
+    """
     si = keys.index(start_bin)
     k0 = max(per_bin[start_bin], key=lambda k: cw[k])
-    chosen = {start_bin: k0}
+    chosen = {start_bin: float(co[k0])}
     for direction in (1, -1):
-        hist = [(start_bin, float(co[k0]))]
+        hb, ho = [float(start_bin)], [float(co[k0])]
         i = si + direction
         while 0 <= i < len(keys):
             b = keys[i]
-            if abs(b - hist[-1][0]) > 12:
+            if abs(b - hb[-1]) > 12:
                 break  # a long hole: the curve ends here
-            if len(hist) >= 3:
-                (b1, o1), (b2, o2) = hist[-3], hist[-1]
-                pred = o2 + (o2 - o1) / (b2 - b1) * (b - b2)
+            if len(hb) >= 3:
+                slope, icpt = np.polyfit(hb[-8:], ho[-8:], 1)
+                pred = slope * b + icpt
             else:
-                pred = hist[-1][1]
-            k = min(per_bin[b], key=lambda k: abs(co[k] - pred))
-            if abs(co[k] - pred) <= 2.0 + 0.3 * abs(b - hist[-1][0]):
-                chosen[b] = k
-                hist.append((b, float(co[k])))
+                pred = ho[-1]
+            k = min(per_bin[b], key=lambda k: max(cmin[k] - pred, pred - cmax[k], 0.0))
+            off = float(co[k]) if cmax[k] - cmin[k] < 2.5 else float(np.clip(pred, cmin[k],
+                                                                              cmax[k]))
+            if abs(off - pred) <= 2.0 + 0.3 * abs(b - hb[-1]):
+                chosen[b] = off
+                hb.append(float(b))
+                ho.append(off)
             i += direction
     return chosen
 
@@ -571,32 +582,45 @@ def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: 
     ks = np.arange(-12.0, 16.01, 0.5)
     q = e_pt + np.outer(ks, tang)
     delta = w_med / 2 + 2.5
-    crossings = []
+    crossings: list[float] = []
+    extrapolated: list[float] = []
     for sign in (-1.0, 1.0):
-        ps = q + sign * delta * nrm
-        val, _ = _bilinear(grey, lut, ps[:, 0], ps[:, 1])
-        val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
-        lvl_in = float(np.median(val[ks <= -6]))
-        lvl_out = float(np.median(val[ks >= 10]))
-        if abs(lvl_in - lvl_out) < 0.25 * max(lvl_in, 1e-6):
+        k1 = _side_crossing(grey, lut, q + sign * delta * nrm, ks)
+        if k1 is None:
             continue
-        half = 0.5 * (lvl_in + lvl_out)
-        sgn = np.sign(lvl_in - half)
-        inside_side = sgn * (val - half) > 0
-        j = int(np.argmin(inside_side[ks > -6])) + int(np.sum(ks <= -6))
-        if inside_side[j] or j == 0:
-            continue
-        v0, v1 = val[j - 1], val[j]
-        frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
-        crossings.append(float(ks[j - 1] + frac * (ks[j] - ks[j - 1])))
+        crossings.append(k1)
+        k2 = _side_crossing(grey, lut, q + sign * 2 * delta * nrm, ks)
+        if k2 is not None and abs(k2 - k1) < 2 * delta:
+            extrapolated.append(2 * k1 - k2)  # the border line followed in to the centreline
     k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
     if len(crossings) == 2:
         k = 0.5 * (crossings[0] + crossings[1])
+    elif extrapolated:
+        k = extrapolated[0]
     elif crossings:
         k = crossings[0]
     else:
         k = k_border if k_border < ks[-1] else 0.0
     return float(min(k, k_border))
+
+
+def _side_crossing(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> float | None:
+    """Where the brightness along the line ``ps`` (at offsets ``ks``) changes from in to out."""
+    val, _ = _bilinear(grey, lut, ps[:, 0], ps[:, 1])
+    val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
+    lvl_in = float(np.median(val[ks <= -6]))
+    lvl_out = float(np.median(val[ks >= 10]))
+    if abs(lvl_in - lvl_out) < 0.25 * max(lvl_in, 1e-6):
+        return None
+    half = 0.5 * (lvl_in + lvl_out)
+    inside_side = np.sign(lvl_in - half) * (val - half) > 0
+    n_in = int(np.sum(ks <= -6))
+    j = int(np.argmin(inside_side[n_in:])) + n_in
+    if inside_side[j] or j == 0:
+        return None
+    v0, v1 = val[j - 1], val[j]
+    frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
+    return float(ks[j - 1] + frac * (ks[j] - ks[j - 1]))
 
 
 def _border_crossing(e_pt: F64, tang: F64, W: int, H: int, default: float) -> float:
