@@ -514,14 +514,15 @@ def rough_calibration(views: Sequence[ViewRecord], board: BoardSpec,
 # ---------------------------------------------------------------------------------------------
 # The routine
 # ---------------------------------------------------------------------------------------------
-def stdin_confirm(prompt_out: TextIO = sys.stderr) -> Callable[[Progress | None], str]:
+def stdin_confirm(prompt_out: TextIO | None = None) -> Callable[[Progress | None], str]:
     """A ``confirm`` callable reading the operator's answer from stdin.
 
     Enter takes a view; ``d`` (or end of input) solves; ``q`` aborts.
     """
     def confirm(progress: Progress | None) -> str:
-        prompt_out.write("jog the robot, then Enter = take view, d = done/solve, q = abort: ")
-        prompt_out.flush()
+        stream = sys.stderr if prompt_out is None else prompt_out
+        stream.write("jog the robot, then Enter = take view, d = done/solve, q = abort: ")
+        stream.flush()
         line = sys.stdin.readline()
         if line == "":
             return "done"
@@ -543,7 +544,7 @@ def collect_view(robot: TeachRobot, camera: TeachCamera, board: BoardSpec, name:
 def run_teach(robot: TeachRobot, camera: TeachCamera, board: BoardSpec, *,
               confirm: Callable[[Progress | None], str] | None = None, auto_n: int | None = None,
               eye_to_hand: bool = False, target_views: int = TARGET_VIEWS,
-              out: TextIO = sys.stderr, save_dir: str | Path | None = None,
+              out: TextIO | None = None, save_dir: str | Path | None = None,
               move_timeout_s: float = 60.0, pivot_mm: float = 350.0,
               workspace_min_mm: F64 | None = None, workspace_max_mm: F64 | None = None,
               identity: dict[str, Any] | None = None, seed: int = 0,
@@ -559,6 +560,7 @@ def run_teach(robot: TeachRobot, camera: TeachCamera, board: BoardSpec, *,
     """
     from controller.view_file import view_to_dict
 
+    out = sys.stderr if out is None else out
     views: list[ViewRecord] = []
     size: tuple[int, int] | None = None
     folder = Path(save_dir) if save_dir is not None else None
