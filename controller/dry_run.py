@@ -110,6 +110,91 @@ def truth_errors(seam_dense_mm: np.ndarray, weld_tcp_mm: np.ndarray, tool_axis: 
             "path_rms_mm": float(np.sqrt(np.mean(d_path**2))), "path_max_mm": float(d_path.max())}
 
 
+class SimRig:
+    """The simulated cell assembled: scene, cell, calibration, job, mock robot and camera.
+
+    A context manager: entering opens the mock controller (on a real pseudo-terminal, driven by the
+    real client) and the simulated camera, which renders from the mock's actual flange pose times
+    the cell's *true* hand-eye. Tests use it to inject faults into an otherwise real cycle.
+    """
+
+    def __init__(self, *, scene_kind: str = "s_curve", seed: int = 1, difficulty: str = "medium",
+                 calibration: str | Path | Calibration | None = None, robot_options: str = "",
+                 camera_options: str = "", speedup: float = 50.0, confirm: bool = False,
+                 n_views: int = 2) -> None:
+        from drivers.sim_cell import default_sim_cell
+        from drivers.sim_scene import make_scene
+
+        self.scene = make_scene(scene_kind, seed, difficulty)
+        self.seed = seed
+        self.cell = default_sim_cell()
+        if isinstance(calibration, Calibration):
+            self.calibration = calibration
+        elif calibration is not None:
+            self.calibration = load_calibration(calibration)
+        else:
+            self.calibration = Calibration(self.cell.camera, self.cell.T_flange_cam,
+                                           metadata={"source": "exact simulated cell"})
+        self.job = dry_run_job(self.scene, view_joints(self.scene, self.cell, n_views), confirm)
+        self.robot_url = f"mock://?seed={seed}&time_scale={1.0 / speedup:g}" + (
+            f"&{robot_options}" if robot_options else "")
+        self.camera_url = f"sim:?seed={seed}" + (f"&{camera_options}" if camera_options else "")
+        self.robot: Any = None
+        self.camera: Any = None
+
+    def __enter__(self) -> SimRig:
+        from drivers.cameras import open_camera
+
+        from drivers.robot import SafetyLimits, open_robot
+
+        lim = self.job.limits
+        self.robot = open_robot(self.robot_url, limits=SafetyLimits(
+            workspace_min_mm=lim.workspace_min_mm, workspace_max_mm=lim.workspace_max_mm,
+            max_speed_mm_s=lim.max_speed_mm_s))
+        self.robot.open()
+        mock, he = self.robot.mock, self.cell.T_flange_cam
+        self.camera = open_camera(self.camera_url, scene=self.scene, camera_model=self.cell.camera,
+                                  pose_source=lambda: mock.flange_pose() @ he)
+        self.camera.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.camera is not None:
+            self.camera.close()
+        if self.robot is not None:
+            self.robot.close()
+
+    @property
+    def mock(self) -> Any:
+        """The mock controller behind the link (arc output, executed motions, fault injection)."""
+        return self.robot.mock
+
+    def cycle(self, records_root: str | Path | None, **kwargs: Any) -> WeldCycle:
+        """A :class:`WeldCycle` of the rig's job (keyword arguments go to WeldCycle)."""
+        kwargs.setdefault("safe_joints_deg", HOME_JOINTS_DEG)
+        return WeldCycle(kwargs.pop("robot", self.robot), kwargs.pop("camera", self.camera),
+                         kwargs.pop("calibration", self.calibration), kwargs.pop("job", self.job),
+                         records_root=records_root, **kwargs)
+
+    def report(self, result: CycleResult, cycle: WeldCycle | None = None) -> DryRunReport:
+        """Compare a finished cycle with the simulator's truth."""
+        rep = DryRunReport(result, self.scene.kind, self.seed, self.scene.difficulty,
+                           arc_on_after=bool(self.mock.arc_on))
+        if result.seam is not None and result.path is not None:
+            weld = result.path.weld_targets
+            errs = truth_errors(result.seam.dense_points_mm,
+                                np.array([t.T_base_tcp[:3, 3] for t in weld]),
+                                np.array([t.T_base_tcp[:3, 2] for t in weld]),
+                                result.path.params.tool_offset_mm, self.scene.seam_points_mm)
+            rep.seam_rms_mm, rep.seam_max_mm = errs["seam_rms_mm"], errs["seam_max_mm"]
+            rep.path_rms_mm, rep.path_max_mm = errs["path_rms_mm"], errs["path_max_mm"]
+            rep.coverage = result.seam.quality.get("coverage")
+            if cycle is not None and cycle.record is not None:
+                cycle.record.note(truth=errs, scene={"kind": self.scene.kind, "seed": self.seed,
+                                                     "difficulty": self.scene.difficulty})
+        return rep
+
+
 def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_curve",
                 seed: int = 1, difficulty: str = "medium", calibration: str | Path | None = None,
                 robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
@@ -121,50 +206,13 @@ def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_c
     (fault injection, e.g. ``drop=0.01&corrupt=0.02``). ``speedup`` runs simulated motion that
     many times faster than real time.
     """
-    from drivers.cameras import open_camera
-
-    from drivers.robot import SafetyLimits, open_robot
-    from drivers.sim_cell import default_sim_cell
-    from drivers.sim_scene import make_scene
-
-    scene = make_scene(scene_kind, seed, difficulty)
-    cell = default_sim_cell()
-    calib = (load_calibration(calibration) if calibration is not None
-             else Calibration(cell.camera, cell.T_flange_cam,
-                              metadata={"source": "exact simulated cell"}))
-    joints = view_joints(scene, cell, n_views)
-    job = dry_run_job(scene, joints, confirm)
-    limits = SafetyLimits(workspace_min_mm=job.limits.workspace_min_mm,
-                          workspace_max_mm=job.limits.workspace_max_mm,
-                          max_speed_mm_s=job.limits.max_speed_mm_s)
-    query = f"seed={seed}&time_scale={1.0 / speedup:g}"
-    if robot_options:
-        query += "&" + robot_options
-    robot = open_robot(f"mock://?{query}", limits=limits)
-    with robot:
-        mock = robot.mock
-        cam_url = f"sim:?seed={seed}" + (f"&{camera_options}" if camera_options else "")
-        camera = open_camera(cam_url, scene=scene, camera_model=cell.camera,
-                             pose_source=lambda: mock.flange_pose() @ cell.T_flange_cam)
-        with camera:
-            cycle = WeldCycle(robot, camera, calib, job, records_root=output,
-                              safe_joints_deg=HOME_JOINTS_DEG)
-            result = cycle.run()
-        arc_on = bool(mock.arc_on)
-    report = DryRunReport(result, scene_kind, seed, difficulty, arc_on_after=arc_on)
-    if result.seam is not None and result.path is not None:
-        weld = result.path.weld_targets
-        errs = truth_errors(result.seam.dense_points_mm,
-                            np.array([t.T_base_tcp[:3, 3] for t in weld]),
-                            np.array([t.T_base_tcp[:3, 2] for t in weld]),
-                            result.path.params.tool_offset_mm, scene.seam_points_mm)
-        report.seam_rms_mm, report.seam_max_mm = errs["seam_rms_mm"], errs["seam_max_mm"]
-        report.path_rms_mm, report.path_max_mm = errs["path_rms_mm"], errs["path_max_mm"]
-        report.coverage = result.seam.quality.get("coverage")
-        if cycle.record is not None:
-            cycle.record.note(truth=errs, scene={"kind": scene_kind, "seed": seed,
-                                                 "difficulty": difficulty})
-    return report
+    rig = SimRig(scene_kind=scene_kind, seed=seed, difficulty=difficulty, calibration=calibration,
+                 robot_options=robot_options, camera_options=camera_options, speedup=speedup,
+                 confirm=confirm, n_views=n_views)
+    with rig:
+        cycle = rig.cycle(output)
+        result = cycle.run()
+        return rig.report(result, cycle)
 
 
 def summary_text(rep: DryRunReport) -> str:
