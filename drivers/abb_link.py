@@ -356,11 +356,24 @@ class AbbRobot(Robot):
             reply = self.link.request(body, t)
         except LinkError as err:
             if err.details.get("restarted"):
-                self._path_len = 0
-                self._hello()
+                self._recover_after_restart()
             raise
         _raise_for(reply, body)
         return reply.data
+
+    def _recover_after_restart(self) -> None:
+        """New session after a controller restart; the tool goes again, the path does not.
+
+        The controller keeps its tool in a PERS variable, which survives a restart with whatever
+        value it had; sending ours again keeps the two in step. The path is gone: ``run_weld``
+        refuses until it is uploaded again. Nothing that moves is sent.
+        """
+        self._path_len = 0
+        self._hello()
+        if not np.array_equal(self._tool.T_flange_tcp, np.eye(4)):
+            p, q = pos_quat_from_pose(self._tool.T_flange_tcp)
+            self._call(f"TP {codec.fmt_position(p)}")
+            self._call(f"TO {codec.fmt_quat(q)}")
 
     def _hello(self) -> None:
         data = self._call(f"HI {self.session}")

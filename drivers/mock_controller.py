@@ -134,6 +134,7 @@ class MockController:
                                              "lines_tx": 0, "bad_lines": 0, "requests": 0,
                                              "duplicates_suppressed": 0}
         self.boot = 0
+        self._tool = np.eye(4)  # PERS tooldata on the controller: survives a restart
         self._reset_volatile()
         self._joints = np.array(HOME_DEG)
         # pty serving
@@ -156,7 +157,6 @@ class MockController:
         self._last_reply = ""
         self._last_mid = 0
         self._event_seq = 0
-        self._tool = np.eye(4)
         self._speed_mm_s = 100.0
         self._zone_mm = 0.0
         self._slot_pos: dict[int, F64] = {}

@@ -160,6 +160,7 @@ class DropAt(MockController):
                 self.disconnect(wait=False)  # the reply is lost with the line
             else:
                 self.restart()
+                self._tool = np.eye(4)  # and someone edited the tool on the pendant meanwhile
         return reply
 
 
@@ -200,8 +201,8 @@ def test_controller_restart_mid_path_is_reported_and_nothing_replayed():
             robot.run_weld(10.0)
         assert "arc_on" not in mock.action_log
         assert [e["kind"] for e in mock.executed] == ["move_linear"]
-        # a new session was opened: the tool and the path go again, and the weld runs once
-        robot.set_tool(TOOL)
+        # a new session was opened and the tool sent again; the path must go again
+        assert np.allclose(mock.tool, TOOL)
         robot.upload_path(path)
         robot.run_weld(10.0).wait(10.0)
         assert [e["kind"] for e in mock.executed] == ["move_linear", "weld"]
