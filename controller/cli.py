@@ -24,6 +24,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "controller.cli_cycle",
     "controller.cli_daemon",
     "controller.cli_calibrate",
+    "controller.cli_detect",
 )
 
 
