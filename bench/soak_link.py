@@ -41,8 +41,9 @@ TARGETS = ([10.0, 20.0, 10.0, 0.0, 30.0, 0.0], [-10.0, 5.0, 0.0, 20.0, 40.0, 10.
 def run_soak(requests: int = 10_000, corrupt: float = 0.02, drop: float = 0.01,
              dup: float = 0.0, seed: int = 7, motion_every: int = 10,
              ack_timeout_s: float = 0.05, retries: int = 40,
-             status_poll_s: float = 0.1) -> dict[str, Any]:
-    url = f"mock://?seed={seed}&corrupt={corrupt}&drop={drop}&dup={dup}"
+             status_poll_s: float = 0.1, disconnect: float = 0.0) -> dict[str, Any]:
+    url = (f"mock://?seed={seed}&corrupt={corrupt}&drop={drop}&dup={dup}"
+           f"&disconnect={disconnect}")
     failures: collections.Counter[str] = collections.Counter()
     accepted: list[int] = []
     outcome_unknown: list[int] = []
@@ -103,6 +104,7 @@ def run_soak(requests: int = 10_000, corrupt: float = 0.02, drop: float = 0.01,
         "retransmissions": stats["retransmissions"], "bad_lines_client": stats["bad_lines"],
         "bad_lines_controller": mstats["bad_lines"],
         "duplicates_suppressed": mstats["duplicates_suppressed"],
+        "reconnects": stats["reconnects"],
         "bytes_client_to_controller": stats["bytes_out"],
         "bytes_controller_to_client": mstats["bytes_tx"],
         "elapsed_s": round(elapsed, 2),
@@ -165,6 +167,8 @@ def main() -> int:
     ap.add_argument("--dup", type=float, default=0.0)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--retries", type=int, default=40)
+    ap.add_argument("--disconnect", type=float, default=0.0,
+                    help="probability of a link drop after each received line")
     ap.add_argument("--weld-cycle", action="store_true",
                     help="instead of the soak: the link time of one weld cycle (2 views, "
                     "100-point path) computed from the bytes and measured at 9600 and 19200 baud")
@@ -174,7 +178,7 @@ def main() -> int:
         print(json.dumps(out, indent=2))
         return 0
     result = run_soak(args.requests, args.corrupt, args.drop, args.dup, args.seed,
-                      retries=args.retries)
+                      retries=args.retries, disconnect=args.disconnect)
     print(json.dumps(result, indent=2))
     ok = result["lost"] == result["executed_twice"] == result["unreported"] == 0
     return 0 if ok and result["wrong_position"] == 0 else 1

@@ -64,6 +64,8 @@ MOCK_OPTIONS: dict[str, str] = {
     "baud": "simulated baud rate (0 = infinitely fast): every byte takes 10/baud s of real "
             "time in each direction (8N1), whatever time_scale is",
     "time_scale": "real seconds per simulated second (0 = instantaneous)",
+    "disconnect": "probability that the link drops after a received line, its reply lost "
+                  "(pty only; the pty comes back behind the same path)",
     "fail_at_point": "controller error when the weld reaches this path point (1-based)",
     "capacity": "path buffer capacity in points (default 250, as the RAPID module)",
 }
@@ -86,7 +88,7 @@ def parse_mock_options(query: str) -> dict[str, Any]:
                               f"{', '.join(sorted(MOCK_OPTIONS))}")
         raw = values[-1]
         try:
-            if key in ("seed", "baud", "fail_at_point", "capacity"):
+            if key in ("seed", "baud", "fail_at_point", "capacity"):  # the integers
                 out[key] = int(raw)
             else:
                 out[key] = float(raw)
@@ -101,8 +103,9 @@ class MockController:
     def __init__(self, *, seed: int = 0, drop: float = 0.0, corrupt: float = 0.0,
                  dup: float = 0.0, delay_ms: float = 0.0, baud: int = 0,
                  time_scale: float = 0.0, fail_at_point: int | None = None,
-                 capacity: int = DEFAULT_CAPACITY) -> None:
-        for name, p in (("drop", drop), ("corrupt", corrupt), ("dup", dup)):
+                 capacity: int = DEFAULT_CAPACITY, disconnect: float = 0.0) -> None:
+        for name, p in (("drop", drop), ("corrupt", corrupt), ("dup", dup),
+                        ("disconnect", disconnect)):
             if not 0.0 <= p <= 1.0:
                 raise ConfigError(f"mock option {name}={p} must be a probability in 0..1")
         for name, v in (("delay_ms", delay_ms), ("baud", baud), ("time_scale", time_scale)):
@@ -113,6 +116,7 @@ class MockController:
         if not 1 <= capacity <= 9999:
             raise ConfigError(f"mock option capacity={capacity} must be in 1..9999")
         self.seed, self.drop, self.corrupt, self.dup = seed, drop, corrupt, dup
+        self.disconnect_p = disconnect
         self.delay_s = delay_ms / 1000.0
         self.baud, self.time_scale = int(baud), float(time_scale)
         self.fail_at_point = fail_at_point
@@ -265,6 +269,10 @@ class MockController:
                 for _ in range(copies):
                     self._schedule(self._tx_time(len(line)),
                                    lambda ln=line: self._process(ln))  # type: ignore[misc]
+                if (self.disconnect_p and self._thread is not None
+                        and self._rng.random() < self.disconnect_p):
+                    # the line is executed, then the link drops before its reply is written
+                    self._schedule(self._tx_time(len(line)), self._drop_link)
 
     def next_due(self) -> float | None:
         """Monotonic time of the next scheduled action (None when idle)."""
@@ -636,6 +644,10 @@ class MockController:
             self.action_log.append("restart")
             self._heap = []
             self._reset_volatile()
+
+    def _drop_link(self) -> None:
+        self._swap_done.clear()
+        self._swap_request.set()
 
     def disconnect(self, timeout_s: float = 2.0, wait: bool = True) -> None:
         """Drop the link: close the pty and open a new one behind the same symlink path.

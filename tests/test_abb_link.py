@@ -70,6 +70,27 @@ def test_lost_lines_are_retransmitted_and_nothing_runs_twice():
         assert robot.mock.link_stats["duplicates_suppressed"] > 0
 
 
+def test_random_disconnects_nothing_lost_nothing_twice():
+    with open_robot("mock://?seed=9&disconnect=0.1", ack_timeout_s=0.1, retries=20,
+                    status_poll_s=0.2) as robot:
+        for k in range(15):
+            robot.move_joints([3.0 * k, 10, 0, 0, 30, 0], speed_mm_s=200).wait(10.0)
+            robot.read_joints()
+        assert [e["mid"] for e in robot.mock.executed] == list(range(1, 16))
+        assert robot.link.stats["reconnects"] >= 2
+        assert robot.mock.action_log.count("disconnect") == robot.link.stats["reconnects"]
+
+
+def test_slow_replies_are_waited_for_not_repeated():
+    with open_robot("mock://?delay_ms=200") as robot:  # ack timeout follows the mock's delay
+        robot.move_joints([10, 0, 0, 0, 30, 0], speed_mm_s=200).wait(5.0)
+        assert robot.link.stats["retransmissions"] == 0
+    with open_robot("mock://?delay_ms=200", ack_timeout_s=0.05, retries=10) as robot:
+        robot.move_joints([10, 0, 0, 0, 30, 0], speed_mm_s=200).wait(5.0)
+        assert robot.link.stats["retransmissions"] > 0  # too impatient: repeats, answered from
+        assert len(robot.mock.executed) == 1            # memory, never executed twice
+
+
 def test_no_reply_is_a_link_error_naming_the_request():
     # loop:// hands our own request back: never a reply.
     link = AbbLink("loop://", ack_timeout_s=0.02, retries=3)
