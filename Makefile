@@ -22,8 +22,7 @@ test: lint
 	$(BIN)/pytest -q
 
 demo: $(STAMP)
-	$(BIN)/seamguide fk 0 0 0 0 0 0
-	$(BIN)/seamguide fk 30 10 -20 45 30 60
+	$(BIN)/seamguide dry-run --output out/dry-run
 
 bench: $(STAMP)
 	$(BIN)/python bench/run_all.py

@@ -37,36 +37,39 @@ from controller.sd_notify import notify, watchdog_interval_s
 log = logging.getLogger(__name__)
 
 
-def open_cell_devices(cfg: CellConfig) -> tuple[Any, Any]:
-    """(robot, camera) for the cell, not yet opened; a ``sim:`` camera is wired to the mock robot.
+def open_cell_robot(cfg: CellConfig) -> Any:
+    """The cell's robot (not yet opened)."""
+    from drivers.robot import open_robot
+
+    return open_robot(cfg.robot.url, timeout_s=cfg.robot.timeout_s)
+
+
+def open_cell_camera(cfg: CellConfig, robot: Any) -> Any:
+    """The cell's camera; a ``sim:`` camera is wired to the mock robot behind ``robot``.
 
     The simulated camera renders from the mock robot's actual flange pose times the simulated
-    cell's true hand-eye transform, so it needs ``robot.url = "mock://..."``.
+    cell's true hand-eye transform, so it needs ``robot.url = "mock://..."``. Raises
+    :class:`ConfigError` / :class:`CameraError`.
     """
     from drivers.cameras import open_camera
 
-    from drivers.robot import open_robot
+    if not cfg.camera.url.startswith("sim:"):
+        return open_camera(cfg.camera.url)
+    if getattr(robot, "mock", None) is None:
+        raise ConfigError(f"{cfg.path}: camera.url is sim: (a simulated camera), which "
+                          f"renders from the mock robot's pose: robot.url must be mock://")
+    from drivers.sim_cell import default_sim_cell
+    from drivers.sim_scene import make_scene
 
-    robot = open_robot(cfg.robot.url, timeout_s=cfg.robot.timeout_s)
-    if cfg.camera.url.startswith("sim:"):
-        if getattr(robot, "mock", None) is None and not cfg.robot.url.startswith("mock:"):
-            raise ConfigError(f"{cfg.path}: camera.url is sim: (a simulated camera), which "
-                              f"renders from the mock robot's pose: robot.url must be mock://")
-        from drivers.sim_cell import default_sim_cell
-        from drivers.sim_scene import make_scene
+    assert cfg.sim is not None
+    scene = make_scene(cfg.sim.scene, cfg.sim.seed, cfg.sim.difficulty)
+    cell = default_sim_cell()
+    mock = robot.mock
 
-        assert cfg.sim is not None
-        scene = make_scene(cfg.sim.scene, cfg.sim.seed, cfg.sim.difficulty)
-        cell = default_sim_cell()
+    def pose() -> np.ndarray:
+        return np.asarray(mock.flange_pose() @ cell.T_flange_cam)
 
-        def pose() -> np.ndarray:
-            return np.asarray(robot.mock.flange_pose() @ cell.T_flange_cam)
-
-        camera = open_camera(cfg.camera.url, scene=scene, camera_model=cell.camera,
-                             pose_source=pose)
-    else:
-        camera = open_camera(cfg.camera.url)
-    return robot, camera
+    return open_camera(cfg.camera.url, scene=scene, camera_model=cell.camera, pose_source=pose)
 
 
 class Daemon:
@@ -228,10 +231,9 @@ class Daemon:
         """Open the robot link and make the robot safe; back off exponentially on failure."""
         try:
             if self.robot is None:
-                robot, camera = open_cell_devices(self.cfg)
+                robot = open_cell_robot(self.cfg)
                 robot.open()
                 self.robot = robot
-                self.camera = camera
             self.robot.abort()  # make safe before anything else
             with self._lock:
                 self.robot_state = "connected"
@@ -246,10 +248,10 @@ class Daemon:
             self._backoff = min(self._backoff * 2, self.cfg.robot.reconnect_max_s)
 
     def _open_camera(self) -> None:
-        if self.camera is None or self.camera_state == "open":
+        if self.camera is not None or self.robot is None:
             return
         try:
-            self.camera.open()
+            self.camera = open_cell_camera(self.cfg, self.robot)
             self.camera_state = "open"
         except CameraError as err:
             self.camera_state = f"failed ({err})"
@@ -272,8 +274,14 @@ class Daemon:
         except ConfigError as err:
             self._reject(str(err))
             return
-        if self.camera_state != "open":
-            self._open_camera()
+        self._open_camera()
+        if self.camera is None:
+            with self._lock:
+                self.counters["cycles_faulted"] += 1
+                self.last_cycle = {"job": job_name, "status": "fault",
+                                   "reason": f"camera unavailable: {self.camera_state}",
+                                   "record": None}
+            return
         assert self.calibration is not None
         cycle = WeldCycle(self.robot, self.camera, self.calibration, job,
                           records_root=self.cfg.records.dir,
@@ -307,6 +315,7 @@ class Daemon:
         elif isinstance(result.error, CameraError):
             with contextlib.suppress(SeamguideError):
                 self.camera.close()
+            self.camera = None
             self.camera_state = "closed"
         rotate_records(self.cfg.records.dir, self.cfg.records.max_age_days,
                        self.cfg.records.max_total_mb)

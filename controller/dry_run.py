@@ -155,7 +155,6 @@ class SimRig:
         mock, he = self.robot.mock, self.cell.T_flange_cam
         self.camera = open_camera(self.camera_url, scene=self.scene, camera_model=self.cell.camera,
                                   pose_source=lambda: mock.flange_pose() @ he)
-        self.camera.open()
         return self
 
     def __exit__(self, *exc: object) -> None:

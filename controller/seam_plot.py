@@ -30,6 +30,12 @@ def seam_plot_png(seam_mm: NDArray[np.float64], path_mm: NDArray[np.float64] | N
     if path_mm is not None:
         p = np.asarray(path_mm)
         ax.plot(p[:, 0], p[:, 1], p[:, 2], "r-", lw=1, label="torch tip path")
+    # Equal scale on every axis (a flat seam must look flat), with some height so a planar seam
+    # is not drawn as a line.
+    allp = s if path_mm is None else np.vstack([s, np.asarray(path_mm)])
+    span = np.maximum(np.ptp(allp, axis=0), 1.0)
+    span[2] = max(span[2], 0.25 * max(span[0], span[1]))
+    ax.set_box_aspect(tuple(float(v) for v in span))
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
     ax.set_zlabel("z (mm)")

@@ -1,0 +1,160 @@
+"""End-to-end weld cycles: mock controller on a pty + real client, simulated camera, real vision.
+
+Each injected fault must end in ``fault`` with the arc off, the robot stopped, the reason in the
+record, and no weld command sent after the fault.
+"""
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from calibration.calibration_file import Calibration
+from controller.cycle_record import read_record
+from controller.dry_run import SimRig, run_dry_run
+from controller.errors import CameraError
+from controller.poses import make_pose
+
+pytestmark = pytest.mark.slow
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opencv-chessboard"
+
+
+def welds(mock):
+    return [e for e in mock.executed if e["kind"] == "weld"]
+
+
+def assert_safe_fault(rig, result, reason_part, weld_allowed=False):
+    assert result.status == "fault", result.reason
+    assert reason_part.lower() in (result.reason or "").lower()
+    assert rig.mock.arc_on is False
+    status = rig.mock.joints_deg  # reading works; the robot is not moving any more
+    assert status is not None
+    assert not any(e["result"] == "running" for e in rig.mock.executed)
+    if not weld_allowed:
+        assert welds(rig.mock) == []
+    doc = read_record(result.record_path)
+    assert doc["status"] == "fault" and reason_part.lower() in doc["reason"].lower()
+
+
+def test_good_cycle_welds_within_a_third_of_a_millimetre(tmp_path):
+    rep = run_dry_run(tmp_path, scene_kind="s_curve", seed=1, speedup=200.0)
+    r = rep.result
+    assert r.status == "done", r.reason
+    assert rep.path_rms_mm <= 0.3 and rep.seam_rms_mm <= 0.3
+    assert rep.arc_on_after is False
+    doc = read_record(r.record_path)
+    assert doc["status"] == "done"
+    states = [s["state"] for s in doc["states"]]
+    assert states == ["moving_to_view", "capturing", "moving_to_view", "capturing", "locating",
+                      "planning", "welding", "done"]
+    for f in ("view1.png", "view2.png", "view1.json", "seam.json", "weld_path.mod",
+              "seam_plot.png", "calibration.yaml"):
+        assert (r.record_path / f).is_file(), f
+
+
+def test_controller_error_mid_weld(tmp_path):
+    with SimRig(robot_options="fail_at_point=5", speedup=200.0) as rig:
+        result = rig.cycle(tmp_path).run()
+        assert_safe_fault(rig, result, "", weld_allowed=True)
+        w = welds(rig.mock)
+        assert len(w) == 1 and w[0]["result"] == "fault"  # no weld started after the fault
+        assert "arc_off" in rig.mock.action_log
+
+
+def test_link_corruption_before_the_weld(tmp_path):
+    with SimRig(speedup=200.0) as rig:
+        def on_state(name):
+            if name == "capturing" and rig.mock.executed and len(rig.mock.executed) >= 2:
+                rig.mock.corrupt = 1.0  # the line goes bad for good while view 2 is taken
+        result = rig.cycle(tmp_path, on_state=on_state).run()
+        rig.mock.corrupt = 0.0
+        assert_safe_fault(rig, result, "")
+        assert type(result.error).__name__ in ("LinkError", "ProtocolError", "MotionTimeout")
+
+
+class FailingCamera:
+    def __init__(self, inner, fail_on):
+        self.inner, self.fail_on, self.n = inner, fail_on, 0
+
+    def grab(self):
+        self.n += 1
+        if self.n == self.fail_on:
+            raise CameraError("simulated camera failure: no frame within 2 s")
+        return self.inner.grab()
+
+
+class ReplacingCamera:
+    def __init__(self, inner, image_for):
+        self.inner, self.image_for, self.n = inner, image_for, 0
+
+    def grab(self):
+        self.n += 1
+        return self.image_for(self.n, self.inner.grab())
+
+
+def test_camera_failure(tmp_path):
+    with SimRig(speedup=200.0) as rig:
+        result = rig.cycle(tmp_path, camera=FailingCamera(rig.camera, 2)).run()
+        assert_safe_fault(rig, result, "camera")
+
+
+def test_no_seam_in_a_real_photograph(tmp_path):
+    photo = cv2.imread(str(DATA / "left01.jpg"), cv2.IMREAD_GRAYSCALE)
+    assert photo is not None, "shared/data/opencv-chessboard/left01.jpg is missing"
+    with SimRig(speedup=200.0) as rig:
+        cam = rig.calibration.camera
+        big = cv2.resize(photo, (cam.width, cam.height), interpolation=cv2.INTER_LINEAR)
+        result = rig.cycle(tmp_path, camera=ReplacingCamera(rig.camera, lambda n, im: big)).run()
+        assert result.status == "fault"
+        assert type(result.error).__name__ in ("SeamNotFound", "AmbiguousSeam")
+        assert_safe_fault(rig, result, "")
+
+
+def test_ambiguous_seam(tmp_path):
+    def doubled(n, im):
+        # a second, equally strong joint 120 px away: the image holds two seams
+        shifted = np.roll(im, 120, axis=0 if n == 1 else 1)
+        return np.minimum(im, shifted)
+
+    with SimRig(speedup=200.0) as rig:
+        result = rig.cycle(tmp_path, camera=ReplacingCamera(rig.camera, doubled)).run()
+        assert result.status == "fault"
+        assert type(result.error).__name__ in ("AmbiguousSeam", "TriangulationError")
+        assert_safe_fault(rig, result, "")
+
+
+def test_bad_triangulation_from_a_wrong_hand_eye(tmp_path):
+    with SimRig(speedup=200.0) as rig:
+        he = rig.cell.T_flange_cam @ make_pose(np.eye(3), [5.0, 0.0, 0.0])
+        wrong = Calibration(rig.cell.camera, he)
+        result = rig.cycle(tmp_path, calibration=wrong).run()
+        assert type(result.error).__name__ == "TriangulationError"
+        assert_safe_fault(rig, result, "quality")
+
+
+def test_unreachable_path(tmp_path):
+    import dataclasses
+
+    with SimRig(speedup=200.0) as rig:
+        lim = dataclasses.replace(rig.job.limits, workspace_max_mm=(1600.0, 900.0, 300.0))
+        job = dataclasses.replace(rig.job, limits=lim)
+        result = rig.cycle(tmp_path, job=job).run()
+        assert type(result.error).__name__ == "ReachabilityError"
+        assert_safe_fault(rig, result, "workspace")
+
+
+def test_operator_abort_during_the_weld(tmp_path):
+    with SimRig(speedup=20.0) as rig:
+        cycle = rig.cycle(tmp_path)
+
+        def on_state(name):
+            if name == "welding":
+                import threading
+
+                threading.Timer(0.0, cycle.request_abort, ("operator pressed abort",)).start()
+        cycle.on_state = on_state
+        result = cycle.run()
+        assert result.status == "aborted"
+        assert rig.mock.arc_on is False
+        assert read_record(result.record_path)["status"] == "aborted"
