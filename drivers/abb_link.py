@@ -280,7 +280,8 @@ class AbbLink:
                 if isinstance(outcome, codec.Reply):
                     if not outcome.ok and outcome.code == 13:
                         raise LinkError(
-                            f"the controller restarted (it answered {line!r} with ER 13 "
+                            f"the controller restarted (it answered {line.decode().strip()!r} "
+                            f"with ER 13 "
                             f"{outcome.text}); nothing is replayed: read status, upload the path "
                             "again", request=line.decode().strip(), restarted=True)
                     return outcome
@@ -369,6 +370,7 @@ class AbbRobot(Robot):
         refuses until it is uploaded again. Nothing that moves is sent.
         """
         self._path_len = 0
+        self.link._last_event_seq = None  # the controller numbers its events from 1 again
         self._hello()
         if not np.array_equal(self._tool.T_flange_tcp, np.eye(4)):
             p, q = pos_quat_from_pose(self._tool.T_flange_tcp)
