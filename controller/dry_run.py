@@ -144,7 +144,6 @@ class SimRig:
 
     def __enter__(self) -> SimRig:
         from drivers.cameras import open_camera
-
         from drivers.robot import SafetyLimits, open_robot
 
         lim = self.job.limits
