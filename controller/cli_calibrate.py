@@ -55,6 +55,8 @@ def register(sub: Any) -> None:
     p.add_argument("--confirm", choices=("enter", "controller"), default="enter",
                    help="teach: take a view on Enter (default) or on a controller request "
                    "(cycle_request event: job 'take', 'done' or 'abort')")
+    p.add_argument("--first-joints", metavar="J1,...,J6",
+                   help="teach: move to these controller joints (deg) before the first view")
     p.add_argument("--save-views", metavar="DIR",
                    help="teach: also record every image and view file in DIR")
     p.add_argument("--holdout-every", type=int, default=5, metavar="K",
@@ -141,8 +143,19 @@ def _teach(args: argparse.Namespace, board: Any, solve_kw: dict[str, Any]) -> tu
 
     if args.camera is None:
         raise ConfigError("--port needs --camera URL (the camera to teach with)")
+    first = None
+    if args.first_joints is not None:
+        try:
+            first = np.array([float(v) for v in args.first_joints.split(",")])
+        except ValueError as err:
+            raise ConfigError(f"--first-joints {args.first_joints!r}: six numbers (deg) "
+                              f"separated by commas") from err
+        if first.shape != (6,):
+            raise ConfigError(f"--first-joints {args.first_joints!r}: needs six values")
     robot = open_teach_robot(args.port)
     try:
+        if first is not None:
+            robot.move_joints(first, 120.0)
         camera = open_teach_camera(args.camera, robot, board, default_camera(),
                                    eye_to_hand=args.eye_to_hand)
         lo, hi = _workspace(args.workspace)
