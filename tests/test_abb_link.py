@@ -307,3 +307,45 @@ def test_short_soak_nothing_lost_nothing_twice():
     assert r["lost"] == 0 and r["executed_twice"] == 0 and r["unreported"] == 0
     assert r["wrong_position"] == 0
     assert r["retransmissions"] > 0  # the faults really happened
+
+
+# ---- the CLI: seamguide mock-robot / seamguide robot ---------------------------------------
+
+
+def test_cli_robot_against_the_mock_url(capsys):
+    import json
+
+    from controller.cli import main
+
+    assert main(["robot", "--port", "mock://", "joints"]) == 0
+    assert json.loads(capsys.readouterr().out) == {"joints_deg": [0.0, 0.0, 0.0, 0.0, 30.0, 0.0]}
+    assert main(["robot", "--port", "mock://", "pose"]) == 0
+    pose = json.loads(capsys.readouterr().out)
+    assert np.allclose(pose["position_mm"],
+                       flange_pose(irb2400(), [0, 0, 0, 0, 30, 0])[:3, 3], atol=1e-3)
+    assert main(["robot", "--port", "mock://?nope=1", "ping"]) == 2  # ConfigError exit code
+
+
+def test_cli_mock_robot_process_serves_until_terminated(tmp_path, capsys):
+    import json
+    import signal
+    import subprocess
+    import sys
+
+    from controller.cli import main
+
+    link = tmp_path / "robot"
+    proc = subprocess.Popen([sys.executable, "-m", "controller.cli", "mock-robot", "--link",
+                             str(link), "--options", "seed=3"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = proc.stdout.readline()  # waits for the ready message (no sleep)
+        assert first.strip() == "{"
+        assert link.is_symlink()
+        assert main(["robot", "--port", str(link), "ping"]) == 0
+        info = json.loads(capsys.readouterr().out)
+        assert info["protocol"] == "SGRS" and info["session"] >= 1
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0
+    assert not link.exists()
