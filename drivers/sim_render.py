@@ -82,7 +82,9 @@ def _rays_cached(width: int, height: int, K: bytes, dist: bytes) -> tuple[F32, F
     cam = CameraModel(width, height, np.frombuffer(K).reshape(3, 3).copy(),
                       np.frombuffer(dist).copy())
     v, u = np.mgrid[0:height, 0:width]
-    xy = cam.pixels_to_normalized(np.column_stack([u.ravel(), v.ravel()]).astype(np.float64))
+    # Newton converges quadratically: 6 steps reach ~1e-15 for a calibrated lens (NaN if not).
+    xy = cam.pixels_to_normalized(np.column_stack([u.ravel(), v.ravel()]).astype(np.float64),
+                                  iterations=6)
     if not np.all(np.isfinite(xy)):
         raise ConfigError(f"camera {cam.name}: distortion is not invertible over the whole image; "
                           "check the calibration's distortion coefficients")
