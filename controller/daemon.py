@@ -15,9 +15,9 @@ READY, STATUS and watchdog pings.
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import logging
-import queue
 import signal
 import threading
 import time
@@ -78,11 +78,13 @@ class Daemon:
     def __init__(self, config_path: str | Path) -> None:
         self.config_path = Path(config_path)
         self.cfg = load_cell_config(config_path)
-        self._requests: queue.Queue[tuple[str, str]] = queue.Queue()
+        self._lock = threading.Lock()
+        # Pending cycle requests (job, source); guarded by _lock, signalled by _wake.
+        self._pending: collections.deque[tuple[str, str]] = collections.deque()
+        self._wake = threading.Condition(self._lock)
+        self._paused = False
         self._stop = threading.Event()
         self._reload = threading.Event()
-        self._paused = threading.Event()
-        self._lock = threading.Lock()
         self._cycle: WeldCycle | None = None
         self._cycle_state = "idle"
         self._cycle_job: str | None = None
@@ -97,6 +99,7 @@ class Daemon:
         self._backoff = self.cfg.robot.reconnect_min_s
         self._server: ControlServer | None = None
         self.ready = threading.Event()
+        self._ended = threading.Condition(self._lock)
 
     # ------------------------------------------------------------------ control requests
     def handle_request(self, req: dict[str, Any]) -> dict[str, Any]:
@@ -112,21 +115,24 @@ class Daemon:
                 self.cfg.job(job)
             except ConfigError as err:
                 return self._reject(str(err))
-            self._requests.put((job, "control socket"))
-            return {"ok": True, "queued": job, "queue_length": self._requests.qsize()}
-        if cmd == "abort":
-            dropped = self._drain_queue()
             with self._lock:
+                self._pending.append((job, "control socket"))
+                self._wake.notify_all()
+                n = len(self._pending)
+            return {"ok": True, "queued": job, "queue_length": n}
+        if cmd == "abort":
+            with self._lock:
+                dropped = len(self._pending)
+                self._pending.clear()
                 cycle = self._cycle
             if cycle is not None:
                 cycle.request_abort("operator abort (control socket)")
             return {"ok": True, "aborted": cycle is not None, "dropped_requests": dropped}
-        if cmd == "pause":
-            self._paused.set()
-            return {"ok": True, "paused": True}
-        if cmd == "resume":
-            self._paused.clear()
-            return {"ok": True, "paused": False}
+        if cmd in ("pause", "resume"):
+            with self._lock:
+                self._paused = cmd == "pause"
+                self._wake.notify_all()
+            return {"ok": True, "paused": cmd == "pause"}
         return self._reject(f"unknown command {cmd!r}; use start, status, abort, pause, resume")
 
     def _reject(self, why: str) -> dict[str, Any]:
@@ -134,37 +140,47 @@ class Daemon:
             self.counters["requests_rejected"] += 1
         return {"ok": False, "error": why}
 
-    def _drain_queue(self) -> int:
-        n = 0
-        while True:
-            try:
-                self._requests.get_nowait()
-                n += 1
-            except queue.Empty:
-                return n
-
     def status(self) -> dict[str, Any]:
         """The status answer: state (``idle`` when waiting), counters, last cycle, devices."""
         with self._lock:
             return {"ok": True, "cell": self.cfg.name, "state": self._cycle_state,
-                    "job": self._cycle_job, "paused": self._paused.is_set(),
+                    "job": self._cycle_job, "paused": self._paused,
                     "robot": self.robot_state, "camera": self.camera_state,
-                    "queue_length": self._requests.qsize(), "counters": dict(self.counters),
+                    "queue_length": len(self._pending), "counters": dict(self.counters),
                     "last_cycle": self.last_cycle}
+
+    def wait_cycles(self, n: int, timeout_s: float) -> bool:
+        """Block until ``n`` cycles have ended (done, faulted or aborted); False on timeout."""
+        def ended() -> int:
+            c = self.counters
+            return c["cycles_done"] + c["cycles_faulted"] + c["cycles_aborted"]
+
+        with self._lock:
+            return self._ended.wait_for(lambda: ended() >= n, timeout=timeout_s)
 
     # ------------------------------------------------------------------ life cycle
     def request_stop(self, reason: str = "shutdown") -> None:
         """Stop after making the robot safe: a running weld is aborted (arc off) first."""
         self._stop.set()
         with self._lock:
+            self._wake.notify_all()
             cycle = self._cycle
         if cycle is not None:
             threading.Thread(target=cycle.request_abort, args=(reason,), daemon=True).start()
 
     def install_signal_handlers(self) -> None:
-        """SIGTERM/SIGINT stop safely; SIGHUP reloads the configuration between cycles."""
-        signal.signal(signal.SIGTERM, lambda *_: self.request_stop("shutdown (SIGTERM)"))
-        signal.signal(signal.SIGINT, lambda *_: self.request_stop("shutdown (SIGINT)"))
+        """SIGTERM/SIGINT stop safely; SIGHUP reloads the configuration between cycles.
+
+        A handler runs in the main thread, which may hold the daemon's lock at that moment: it
+        only sets flags and hands the rest (taking the lock, aborting the cycle) to a thread.
+        """
+        def stop(name: str) -> None:
+            self._stop.set()
+            threading.Thread(target=self.request_stop, args=(f"shutdown ({name})",),
+                             daemon=True).start()
+
+        signal.signal(signal.SIGTERM, lambda *_: stop("SIGTERM"))
+        signal.signal(signal.SIGINT, lambda *_: stop("SIGINT"))
         signal.signal(signal.SIGHUP, lambda *_: self._reload.set())
 
     def serve(self) -> int:
@@ -203,13 +219,15 @@ class Daemon:
         return 0
 
     def _next_request(self) -> tuple[str, str] | None:
-        if self._paused.is_set():
-            self._stop.wait(0.2)
-            return None
-        try:
-            return self._requests.get(timeout=0.1)
-        except queue.Empty:
-            pass
+        with self._lock:
+            # Wait on the condition (woken by start/resume/stop) for at most 0.1 s, then look at
+            # the controller's events.
+            self._wake.wait_for(lambda: self._stop.is_set() or (self._pending and not self._paused),
+                                timeout=0.1)
+            if self._stop.is_set() or self._paused:
+                return None
+            if self._pending:
+                return self._pending.popleft()
         try:
             event = self.robot.poll_event(timeout_s=0.1)
         except LinkError as err:
@@ -235,6 +253,7 @@ class Daemon:
                 robot.open()
                 self.robot = robot
             self.robot.abort()  # make safe before anything else
+            log.info("robot link open; robot made safe (arc off, motion stopped)")
             with self._lock:
                 self.robot_state = "connected"
             self._backoff = self.cfg.robot.reconnect_min_s
@@ -281,6 +300,7 @@ class Daemon:
                 self.last_cycle = {"job": job_name, "status": "fault",
                                    "reason": f"camera unavailable: {self.camera_state}",
                                    "record": None}
+                self._ended.notify_all()
             return
         assert self.calibration is not None
         cycle = WeldCycle(self.robot, self.camera, self.calibration, job,
@@ -305,6 +325,7 @@ class Daemon:
             self.last_cycle = {"job": job_name, "status": result.status,
                                "reason": result.reason,
                                "record": str(result.record_path) if result.record_path else None}
+            self._ended.notify_all()
         log.info("cycle of job %s ended %s%s", job_name, result.status,
                  f": {result.reason}" if result.reason else "")
         notify(f"STATUS=last cycle {result.status}; waiting for cycle requests")

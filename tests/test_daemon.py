@@ -1,0 +1,197 @@
+"""The cell daemon in-process (threads) and as a real process (signals, SIGKILL and restart)."""
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from daemon_harness import make_cell
+
+from controller.cell_config import load_cell_config
+from controller.control_socket import send_request
+from controller.cycle_record import read_record
+from controller.daemon import Daemon
+from controller.errors import ConfigError
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture
+def running(tmp_path):
+    cfg_path = make_cell(tmp_path / "cell")
+    d = Daemon(cfg_path)
+    t = threading.Thread(target=d.serve, daemon=True)
+    t.start()
+    assert d.ready.wait(30), "daemon did not become ready"
+    yield d, load_cell_config(cfg_path)
+    d.request_stop("test over")
+    t.join(60)
+    assert not t.is_alive()
+
+
+def test_status_start_and_counters(running):
+    d, cfg = running
+    st = send_request(cfg.control.socket, {"cmd": "status"})
+    assert st["ok"] and st["state"] == "idle" and st["robot"] == "connected"
+    assert st["counters"] == {"cycles_done": 0, "cycles_faulted": 0, "cycles_aborted": 0,
+                              "requests_rejected": 0}
+    r = send_request(cfg.control.socket, {"cmd": "start", "job": "demo"})
+    assert r["ok"] and r["queued"] == "demo"
+    assert d.wait_cycles(1, 120)
+    st = send_request(cfg.control.socket, {"cmd": "status"})
+    assert st["counters"]["cycles_done"] == 1, st["last_cycle"]
+    assert st["last_cycle"]["status"] == "done"
+    assert read_record(st["last_cycle"]["record"])["status"] == "done"
+    assert oct(os.stat(cfg.control.socket).st_mode & 0o777) == "0o600"
+
+
+def test_cycle_requested_by_the_controller(running):
+    d, cfg = running
+    d.robot.mock.request_cycle("demo")
+    assert d.wait_cycles(1, 120)
+    assert d.status()["last_cycle"]["status"] == "done"
+
+
+def raw(path, data: bytes) -> bytes:
+    s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    s.settimeout(10)
+    s.connect(str(path))
+    s.sendall(data)
+    buf = b""
+    while not buf.endswith(b"\n"):
+        chunk = s.recv(65536)
+        if not chunk:
+            break
+        buf += chunk
+    s.close()
+    return buf
+
+
+def test_bad_control_requests_keep_the_daemon_running(running):
+    d, cfg = running
+    sock = cfg.control.socket
+    assert "malformed" in json.loads(raw(sock, b"this is not json\n"))["error"]
+    assert "JSON object" in json.loads(raw(sock, b"[1, 2]\n"))["error"]
+    assert "unknown command" in send_request(sock, {"cmd": "explode"})["error"]
+    assert "unknown job" in send_request(sock, {"cmd": "start", "job": "nope"})["error"]
+    assert "job name" in send_request(sock, {"cmd": "start"})["error"]
+    assert "longer than" in json.loads(raw(sock, b"x" * 10000 + b"\n"))["error"]
+    st = send_request(sock, {"cmd": "status"})
+    assert st["ok"] and st["counters"]["requests_rejected"] == 3
+
+
+def test_pause_holds_requests_and_abort_drops_them(running):
+    d, cfg = running
+    sock = cfg.control.socket
+    assert send_request(sock, {"cmd": "pause"})["paused"] is True
+    send_request(sock, {"cmd": "start", "job": "demo"})
+    st = send_request(sock, {"cmd": "status"})
+    assert st["paused"] and st["queue_length"] == 1 and st["state"] == "idle"
+    r = send_request(sock, {"cmd": "abort"})
+    assert r["ok"] and r["dropped_requests"] == 1
+    assert send_request(sock, {"cmd": "resume"})["paused"] is False
+
+
+def test_bad_configuration_files(tmp_path):
+    cfg = make_cell(tmp_path / "c")
+    text = cfg.read_text()
+    cases = {
+        "robot.url": text.replace('[robot]\nurl = ', '[robot]\nurll = '),
+        "sim": text.replace("[sim]", "[simulation]"),
+        "max_line_bytes": text.replace("max_line_bytes = 4096", 'max_line_bytes = "big"'),
+        "safe_joints_deg": text.replace("safe_joints_deg = [0.0, 0.0, 0.0, 0.0, 30.0, 0.0]",
+                                        "safe_joints_deg = [0.0, 0.0, 99.0, 0.0, 30.0, 0.0]"),
+    }
+    for key, bad in cases.items():
+        cfg.write_text(bad)
+        with pytest.raises(ConfigError) as info:
+            load_cell_config(cfg)
+        assert str(cfg) in str(info.value), key
+
+
+def _spawn(cfg: Path, log: Path) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "controller.cli", "run", "--config", str(cfg)],
+                            stdout=subprocess.DEVNULL, stderr=open(log, "ab"),
+                            cwd=Path(__file__).resolve().parent.parent)
+
+
+def _wait_for(predicate, timeout_s, what):
+    """Wait on the daemon's replies until ``predicate`` holds (each call is a request/reply)."""
+    deadline = time.monotonic() + timeout_s
+    last = None
+    while time.monotonic() < deadline:
+        try:
+            last = predicate()
+            if last:
+                return last
+        except Exception as err:  # noqa: BLE001 - the daemon may not be up yet
+            last = err
+        threading.Event().wait(0.05)  # pacing between requests, not synchronisation
+    raise AssertionError(f"timed out waiting for {what}: {last}")
+
+
+def test_sigkill_mid_cycle_then_restart(tmp_path):
+    cfg_path = make_cell(tmp_path / "cell", time_scale=0.05)
+    cfg = load_cell_config(cfg_path)
+    sock = cfg.control.socket
+    p = _spawn(cfg_path, tmp_path / "stderr1.log")
+    try:
+        _wait_for(lambda: send_request(sock, {"cmd": "status"})["ok"], 60, "daemon start")
+        send_request(sock, {"cmd": "start", "job": "demo"})
+        _wait_for(lambda: send_request(sock, {"cmd": "status"})["state"] == "welding", 120,
+                  "the weld to start")
+        p.send_signal(signal.SIGKILL)
+        p.wait(10)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    rec = next((cfg_path.parent / "records").iterdir())
+    assert read_record(rec)["status"] == "incomplete"
+    p2 = _spawn(cfg_path, tmp_path / "stderr2.log")
+    try:
+        _wait_for(lambda: send_request(sock, {"cmd": "status"})["ok"], 60, "daemon restart")
+        doc = read_record(rec)
+        assert doc["status"] == "interrupted" and "process stopped" in doc["reason"]
+        assert doc["states"][-1]["state"] == "welding"
+        lines = [json.loads(x) for x in (cfg_path.parent / "log.jsonl").read_text().splitlines()]
+        second = [x["message"] for x in lines if "interrupted" in x["message"]
+                  or "made safe" in x["message"] or "daemon ready" in x["message"]]
+        i_safe = max(i for i, m in enumerate(second) if "made safe" in m)
+        i_ready = max(i for i, m in enumerate(second) if "daemon ready" in m)
+        assert i_safe < i_ready  # the robot was made safe before the daemon took requests
+        send_request(sock, {"cmd": "start", "job": "demo"})
+        st = _wait_for(lambda: (lambda s: s if s["counters"]["cycles_done"] == 1 else None)(
+            send_request(sock, {"cmd": "status"})), 120, "the next cycle")
+        assert st["last_cycle"]["status"] == "done"
+        p2.send_signal(signal.SIGTERM)
+        assert p2.wait(60) == 0
+    finally:
+        if p2.poll() is None:
+            p2.kill()
+
+
+def test_sigterm_mid_weld_aborts_with_the_arc_off_and_exits(tmp_path):
+    cfg_path = make_cell(tmp_path / "cell", time_scale=0.05)
+    cfg = load_cell_config(cfg_path)
+    sock = cfg.control.socket
+    p = _spawn(cfg_path, tmp_path / "stderr.log")
+    try:
+        _wait_for(lambda: send_request(sock, {"cmd": "status"})["ok"], 60, "daemon start")
+        send_request(sock, {"cmd": "start", "job": "demo"})
+        _wait_for(lambda: send_request(sock, {"cmd": "status"})["state"] == "welding", 120,
+                  "the weld to start")
+        p.send_signal(signal.SIGTERM)
+        assert p.wait(60) == 0
+    finally:
+        if p.poll() is None:
+            p.kill()
+    rec = next((cfg_path.parent / "records").iterdir())
+    doc = read_record(rec)
+    assert doc["status"] == "aborted" and "SIGTERM" in doc["reason"]
+    assert not Path(sock).exists()
