@@ -1,0 +1,161 @@
+import glob
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from calibration.calibration_file import Calibration, save_calibration
+from controller.camera_model import default_camera
+from controller.cli import main
+from controller.errors import AmbiguousSeam, InputError, SeamNotFound
+from controller.seam_detect import DetectParams, detect_seam
+from drivers.sim_render import render, suggest_view_poses
+from drivers.sim_scene import make_scene
+
+# Half-size images (1136x852) seen from 250 mm: the gap is as many pixels wide as in the full
+# 2272x1704 image from 350 mm, and a render takes a fraction of a second.
+CAM = default_camera().scaled(0.5)
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "opencv-chessboard"
+
+
+def dist_to_polyline(P, Q):
+    A, B = Q[:-1], Q[1:]
+    AB = B - A
+    t = np.clip(((P[:, None] - A[None]) * AB[None]).sum(2) / ((AB**2).sum(1) + 1e-12)[None], 0, 1)
+    return np.linalg.norm(P[:, None] - (A[None] + t[..., None] * AB[None]), axis=2).min(1)
+
+
+def end_error(det, truth):
+    e, t = det.endpoints_px, np.array([truth[0], truth[-1]])
+    return min(np.linalg.norm(e - t, axis=1).max(), np.linalg.norm(e - t[::-1], axis=1).max())
+
+
+def rendered(kind, seed, difficulty="medium", roll=0.0, **over):
+    sc = make_scene(kind, seed, difficulty, **over)
+    T = suggest_view_poses(sc, CAM, standoff_mm=250.0)[seed % 2].copy()
+    c, s = np.cos(roll), np.sin(roll)
+    R = np.eye(4)
+    R[:2, :2] = [[c, -s], [s, c]]
+    return render(sc, CAM, T @ R, seed=seed)
+
+
+@pytest.fixture(scope="module")
+def cases():
+    return {k: rendered(k, i + 1, roll=0.4 * i + 0.3)
+            for i, k in enumerate(["straight", "arc", "s_curve", "nonplanar"])}
+
+
+@pytest.mark.parametrize("kind", ["straight", "arc", "s_curve", "nonplanar"])
+def test_subpixel_centreline_and_honest_ends(cases, kind):
+    r = cases[kind]
+    det = detect_seam(r.image)
+    err = dist_to_polyline(det.points_px, r.seam_px)
+    assert np.sqrt(np.mean(err**2)) < 0.3
+    assert err.max() < 2.0
+    assert end_error(det, r.seam_px) < 3.0
+    assert det.confidence > 0.7
+    assert det.points_px.shape[1] == 2 and np.allclose(det.endpoints_px,
+                                                       det.points_px[[0, -1]])
+    steps = np.linalg.norm(np.diff(det.points_px, axis=0), axis=1)
+    assert steps.max() < 10.0  # ordered end to end, no jumps back and forth
+    assert len(det.reasons) >= 3 and len(det.width_px) == len(det.points_px)
+
+
+def test_unbiased_when_the_sheets_differ_in_brightness():
+    # The darkness centroid would be pulled toward the darker sheet; the edge midpoint is not.
+    r = rendered("straight", 3, "easy", albedo_a=0.75, albedo_b=0.25, clutter=False)
+    det = detect_seam(r.image)
+    d = det.points_px[5:-5]
+    P = r.seam_px
+    t = (P[-1] - P[0]) / np.linalg.norm(P[-1] - P[0])
+    n = np.array([-t[1], t[0]])
+    signed = (d - P[0]) @ n
+    assert abs(np.mean(signed)) < 0.08
+
+
+def test_hard_scene_with_marks_crossing_the_seam():
+    r = rendered("s_curve", 2, "hard", roll=1.1)
+    det = detect_seam(r.image)
+    err = dist_to_polyline(det.points_px, r.seam_px)
+    assert err.max() < 2.0 and end_error(det, r.seam_px) < 3.0
+
+
+def test_no_seam_in_view_is_refused():
+    sc = make_scene("straight", 5, "hard")
+    T = suggest_view_poses(sc, CAM, standoff_mm=250.0)[0].copy()
+    T[:3, 3] += T[:3, 1] * 260.0  # look at the table beside the part
+    r = render(sc, CAM, T, seed=0)
+    assert len(r.seam_px) == 0
+    with pytest.raises(SeamNotFound) as err:
+        detect_seam(r.image)
+    assert "candidates_seen" in err.value.details
+
+
+@pytest.mark.skipif(not SHARED.exists(), reason="../shared/data not present")
+def test_real_photographs_without_a_seam_are_refused():
+    files = sorted(glob.glob(str(SHARED / "*.jpg")))
+    assert len(files) >= 10
+    for f in files:
+        img = cv2.imread(f)
+        with pytest.raises((SeamNotFound, AmbiguousSeam)):
+            detect_seam(img)
+
+
+def test_two_similar_seams_are_ambiguous_and_roi_or_hint_resolves(cases):
+    img = cases["straight"].image
+    h, w = img.shape
+    two = np.hstack([img, img])
+    with pytest.raises(AmbiguousSeam) as err:
+        detect_seam(two)
+    assert "best_px" in err.value.details and "second_px" in err.value.details
+    det = detect_seam(two, roi=(w, 0, 2 * w, h))
+    truth = cases["straight"].seam_px + [w, 0]
+    assert dist_to_polyline(det.points_px, truth).max() < 2.0
+    det = detect_seam(two, hint=truth)
+    assert dist_to_polyline(det.points_px, truth).max() < 2.0
+
+
+def test_bad_inputs():
+    img = np.zeros((100, 100), np.float32)
+    with pytest.raises(InputError, match="uint8"):
+        detect_seam(img)
+    with pytest.raises(InputError, match="too small"):
+        detect_seam(np.zeros((20, 400), np.uint8))
+    with pytest.raises(InputError, match="calibration"):
+        detect_seam(np.zeros((300, 400), np.uint8), camera=default_camera(640, 480))
+    with pytest.raises(InputError, match="roi"):
+        detect_seam(np.zeros((300, 400), np.uint8), roi=(0, 0, 10, 10))
+    with pytest.raises(InputError, match="roi"):
+        detect_seam(np.zeros((300, 400), np.uint8), roi=("a", 0, 10, 10))
+    with pytest.raises(SeamNotFound):
+        detect_seam(np.full((300, 400), 128, np.uint8))
+    assert DetectParams().gamma == 2.2
+
+
+def test_cli_detect(tmp_path, cases, capsys):
+    r = cases["arc"]
+    png = tmp_path / "view.png"
+    cv2.imwrite(str(png), r.image)
+    out, ov = tmp_path / "seam.json", tmp_path / "overlay.png"
+    assert main(["detect", str(png), "--output", str(out), "--overlay", str(ov)]) == 0
+    doc = json.loads(out.read_text())
+    pts = np.array(doc["seam_px"])
+    assert dist_to_polyline(pts, r.seam_px).max() < 2.0
+    assert 0 < doc["confidence"] <= 1 and doc["reasons"]
+    assert cv2.imread(str(ov)) is not None
+    # Size check against a calibration file.
+    calib = tmp_path / "cal.yaml"
+    save_calibration(calib, Calibration(camera=default_camera()))
+    assert main(["detect", str(png), "--calibration", str(calib)]) == InputError.exit_code
+    assert "calibration is for 2272x1704" in capsys.readouterr().err
+    # No seam: exit code of SeamNotFound, and the overlay says so.
+    blank = tmp_path / "blank.png"
+    cv2.imwrite(str(blank), np.random.default_rng(0).integers(60, 90, (400, 600), np.uint8))
+    assert main(["detect", str(blank), "--overlay", str(ov)]) == SeamNotFound.exit_code
+    # Not an image; bad ROI.
+    txt = tmp_path / "notes.png"
+    txt.write_text("hello")
+    assert main(["detect", str(txt)]) == InputError.exit_code
+    assert main(["detect", str(png), "--roi", "1,2,3"]) == InputError.exit_code
