@@ -218,6 +218,41 @@ def run_opencv_chessboard():
                                    "rms_px": 0.3926}}
 
 
+def run_dry_run_check(seed=7, n_views=16, tmp=None):
+    """Teach a simulated session for the dry run's own cell (its camera and true hand-eye), write
+    the calibration file through the folder solver, then run the dry run with it and with the
+    exact calibration; returns both seam errors (mm)."""
+    import tempfile
+
+    from calibration.calibration_file import save_calibration
+    from calibration.teach import calibrate_from_folder
+    from controller.dry_run import run_dry_run
+    from drivers.sim_board import write_view_folder
+    from drivers.sim_cell import default_sim_cell
+
+    cell = default_sim_cell()
+    board = parse_board_spec("chessboard:9x6:20")
+    tmpdir = Path(tmp or tempfile.mkdtemp(prefix="seamguide-calib-"))
+    s = simulate_session(cell.camera, board, n_views=n_views, seed=seed, n_blurred=1,
+                         T_flange_cam=cell.T_flange_cam)
+    write_view_folder(s, tmpdir / "views", use_joints=False)
+    calib, report = calibrate_from_folder(tmpdir / "views", board)
+    path = tmpdir / "taught.yaml"
+    save_calibration(path, calib)
+    d_mm, d_deg = pose_error(calib.T_flange_cam, cell.T_flange_cam)
+    out = {"hand_eye_error_mm_deg": [d_mm, d_deg],
+           "focal_error_pct": 100 * (calib.camera.fx / cell.camera.fx - 1),
+           "rejected": [r["view"] for r in report["hand_eye"]["rejected_views"]],
+           "calibration_file": str(path), "dry_runs": {}}
+    for name, cal in (("exact", None), ("taught", path)):
+        rows = []
+        for scene_seed in (1, 2, 3):
+            rep = run_dry_run(None, seed=scene_seed, calibration=cal)
+            rows.append([rep.seam_rms_mm, rep.seam_max_mm, rep.result.status])
+        out["dry_runs"][name] = rows
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=3)
@@ -225,6 +260,8 @@ def main():
     ap.add_argument("--width", type=int, default=2272)
     ap.add_argument("--output", default=str(ROOT / "bench" / "calibration_results.json"))
     ap.add_argument("--skip-sim", action="store_true")
+    ap.add_argument("--dry-run", action="store_true",
+                    help="also teach the dry run's cell and run dry runs with that calibration")
     args = ap.parse_args()
     result = {}
     if not args.skip_sim:
@@ -260,6 +297,19 @@ def main():
               f"calibrateCamera on the same corners: fx {d['fx']:.2f}, RMS {d['rms_px']:.3f} px "
               f"(max |K difference| {c['max_abs_K_difference']:.2e}); upstream reference fx "
               f"535.92, RMS 0.393 px.")
+    if args.dry_run:
+        dr = run_dry_run_check()
+        result["dry_run"] = dr
+        print(f"\n## Dry run with a taught calibration\n\nhand-eye error "
+              f"{dr['hand_eye_error_mm_deg'][0]:.3f} mm / {dr['hand_eye_error_mm_deg'][1]:.4f} "
+              f"deg, focal {dr['focal_error_pct']:.4f} %, rejected {dr['rejected']}\n")
+        print("| calibration | scene seed | seam RMS mm | seam max mm | result |")
+        print("|---|---|---|---|---|")
+        for name, rows in dr["dry_runs"].items():
+            for k, r in enumerate(rows, start=1):
+                rms = "-" if r[0] is None else f"{r[0]:.3f}"
+                mx = "-" if r[1] is None else f"{r[1]:.3f}"
+                print(f"| {name} | {k} | {rms} | {mx} | {r[2]} |")
     Path(args.output).write_text(json.dumps(result, indent=1, default=float) + "\n")
 
 

@@ -184,3 +184,17 @@ def test_solve_views_needs_the_board():
 def test_ambiguous_chessboard_refused():
     with pytest.raises(CalibrationError, match="odd sum"):
         solve_views([], parse_board_spec("chessboard:8x6:20"), (640, 480))
+
+
+@pytest.mark.slow
+def test_eye_to_hand_folder_writes_camera_pose(tmp_path):
+    s = simulate_session(CAM, BOARD, n_views=8, seed=2, eye_to_hand=True)
+    write_view_folder(s, tmp_path)
+    calib, report = calibrate_from_folder(tmp_path, BOARD, eye_to_hand=True, holdout_every=0)
+    assert calib.T_flange_cam is None and calib.T_base_cam is not None
+    d_mm, d_deg = pose_error(calib.T_base_cam, s.T_base_cam)
+    assert d_mm < 1.0 and d_deg < 0.1
+    assert report["hand_eye"]["mode"] == "eye-to-hand"
+    out = tmp_path / "fixed.yaml"
+    save_calibration(out, calib)
+    assert load_calibration(out).T_base_cam is not None
