@@ -111,20 +111,26 @@ def run_soak(requests: int = 10_000, corrupt: float = 0.02, drop: float = 0.01,
     }
 
 
-def run_weld_cycle(baud: int = 0, points: int = 100) -> dict[str, Any]:
+def run_weld_cycle(baud: int = 0, points: int = 100, vary_orientation: bool = False
+                   ) -> dict[str, Any]:
     """One weld cycle's link traffic: two views, tool, a ``points``-point path, the weld.
 
     Views: ``move_joints`` + wait + ``read_joints`` + ``read_pose`` each; then ``set_tool``, a
     ``move_linear`` approach, ``upload_path`` and ``run_weld`` (one progress event per point), and
     a final ``status``. Motion is instantaneous (time_scale=0); with ``baud`` > 0 every byte takes
-    its wire time for real, so the elapsed time is the link time as the client sees it.
+    its wire time for real, so the elapsed time is the link time as the client sees it. With
+    ``vary_orientation`` the torch tilts a little at every point, so no orientation repeats (the
+    worst case; a constant torch orientation goes as ``XR``).
     """
     from controller.kinematics import flange_pose, irb2400
-    from controller.poses import make_pose
+    from controller.poses import make_pose, rotation_about
 
     tool = make_pose(t_mm=[0.0, 0.0, 300.0])
     start = flange_pose(irb2400(), [0.0, 10.0, 0.0, 0.0, 60.0, 0.0]) @ tool
     path = [start @ make_pose(t_mm=[0.0, 2.0 * i - 100.0, 0.0]) for i in range(points)]
+    if vary_orientation:
+        path = [T @ make_pose(rotation_about([1.0, 0.0, 0.0], np.radians(0.1 * i)))
+                for i, T in enumerate(path)]
     views = ([20.0, 5.0, 5.0, 0.0, 60.0, 0.0], [-20.0, 5.0, 5.0, 0.0, 60.0, 0.0])
     t0 = time.perf_counter()
     with open_robot(f"mock://?baud={baud}", timeout_s=60.0) as robot:
@@ -147,7 +153,8 @@ def run_weld_cycle(baud: int = 0, points: int = 100) -> dict[str, Any]:
         retrans = robot.link.stats["retransmissions"]
     total = st["bytes_rx"] + st["bytes_tx"]
     return {
-        "baud": baud, "path_points": points, "requests": st["requests"],
+        "baud": baud, "path_points": points, "orientation_varies": vary_orientation,
+        "requests": st["requests"],
         "lines_to_controller": st["lines_rx"], "lines_from_controller": st["lines_tx"],
         "bytes_to_controller": st["bytes_rx"], "bytes_from_controller": st["bytes_tx"],
         "computed_wire_s_9600": round(10.0 * total / 9600, 2),
@@ -174,7 +181,8 @@ def main() -> int:
                     "100-point path) computed from the bytes and measured at 9600 and 19200 baud")
     args = ap.parse_args()
     if args.weld_cycle:
-        out = [run_weld_cycle(0)] + [run_weld_cycle(b) for b in (9600, 19200)]
+        out = [run_weld_cycle(b, vary_orientation=v) for v in (False, True)
+               for b in (9600, 19200)]
         print(json.dumps(out, indent=2))
         return 0
     result = run_soak(args.requests, args.corrupt, args.drop, args.dup, args.seed,

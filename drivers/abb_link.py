@@ -473,7 +473,7 @@ class AbbRobot(Robot):
         return h
 
     def upload_path(self, targets: Sequence[ArrayLike]) -> None:
-        """Check every point (box, IK, length <= capacity), then ``PN n`` and one XP/XO pair each.
+        """Check every point (box, IK, length <= capacity), then ``PN n`` and XP + XO (or XR) each.
 
         A path longer than the controller buffer raises :class:`SafetyError` before any byte.
         """
@@ -481,10 +481,15 @@ class AbbRobot(Robot):
         path.check(self.limits, self._tool, self._capacity)
         self._path_len = 0
         self._call(f"PN {len(path.targets)}")
+        previous = ""
         for i, T in enumerate(path.targets, start=1):
             p, q = pos_quat_from_pose(T)
             self._call(f"XP {i} {codec.fmt_position(p)}")
-            self._call(f"XO {i} {codec.fmt_quat(q)}")
+            quat = codec.fmt_quat(q)
+            # XR: the same orientation as the point before (as written on the wire), 10 bytes
+            # instead of 45; most torch orientations repeat along a seam.
+            self._call(f"XR {i}" if quat == previous else f"XO {i} {quat}")
+            previous = quat
         self._path_len = len(path.targets)
 
     def run_weld(self, speed_mm_s: float, arc_output: bool = True) -> MotionHandle:

@@ -420,6 +420,17 @@ class MockController:
         self._solve_slot(k)
         return codec.ok_body()
 
+    def _cmd_XR(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 1, "XR")
+        k = self._slot(a[0])
+        if k is None:
+            return codec.error_body(24, "slot out of range")
+        if k < 2 or (k - 1) not in self._slot_quat:
+            return codec.error_body(21, "no orientation to repeat")
+        self._slot_quat[k] = self._slot_quat[k - 1].copy()
+        self._solve_slot(k)
+        return codec.ok_body()
+
     def _solve_slot(self, k: int) -> None:
         """IK of a completed path slot, near the previous point (the real server does it in RW).
 

@@ -166,6 +166,22 @@ def test_weld_progress_and_fault_at_point_n():
         assert kinds.count("weld") == 1
 
 
+def test_path_orientations_arrive_whether_repeated_or_not():
+    from controller.poses import rotation_about
+
+    with open_robot("mock://") as robot:
+        robot.set_tool(TOOL)
+        base = weld_line(1)[0]
+        path = [base @ make_pose(t_mm=[0.0, 2.0 * i, 0.0]) for i in range(10)]
+        path += [path[-1] @ make_pose(rotation_about([1, 0, 0], np.radians(1.0 * i)))
+                 for i in range(1, 6)]  # the torch tilts over the last five points
+        robot.move_linear(path[0], speed_mm_s=200).wait(5.0)
+        robot.upload_path(path)
+        robot.run_weld(10.0).wait(10.0)
+        assert pose_error(robot.mock.flange_pose() @ TOOL, path[-1])[0] < 0.01
+        assert pose_error(robot.mock.flange_pose() @ TOOL, path[-1])[1] < 1e-4
+
+
 class DropAt(MockController):
     """Does something nasty when path slot ``at`` arrives (in the mock's own thread)."""
 

@@ -123,6 +123,21 @@ def _line(n: int) -> list[np.ndarray]:
     return [T @ make_pose(t_mm=[0.0, 2.0 * i, 0.0]) for i in range(n)]
 
 
+def test_xr_repeats_the_previous_orientation(wire):
+    T = _line(2)
+    p1, q1 = pos_quat_from_pose(T[0])
+    p2, _ = pos_quat_from_pose(T[1])
+    wire.send("PN 2")
+    assert wire.send("XR 1")[0].code == 21  # nothing before slot 1
+    wire.send(f"XP 1 {codec.fmt_position(p1)}")
+    assert wire.send("XR 2")[0].code == 21  # slot 1 has no orientation yet
+    wire.send(f"XO 1 {codec.fmt_quat(q1)}")
+    wire.send(f"XP 2 {codec.fmt_position(p2)}")
+    assert wire.send("XR 2")[0].ok
+    assert wire.send("RW 3 0")[0].ok
+    assert np.allclose(wire.mock.flange_pose(), T[1], atol=1e-3)
+
+
 def test_weld_reports_progress_and_switches_the_arc(wire):
     _upload(wire, _line(5))
     r, ev = wire.send("RW 7 1")

@@ -319,6 +319,16 @@ MODULE SGSERVER
       ENDIF
       RETURN "OK";
     ENDIF
+    IF c = "XR" THEN
+      ! orientation of slot k = that of slot k - 1 (path points only)
+      IF nf <> 2 OR NOT Slot(2, a) RETURN "ER 12 bad arguments to XR";
+      IF a > CAPACITY RETURN "ER 24 slot out of range";
+      IF a < 2 RETURN "ER 21 no orientation to repeat";
+      IF NOT haverot{a} RETURN "ER 21 no orientation to repeat";
+      slots{a + 1}.rot := slots{a}.rot;
+      haverot{a + 1} := TRUE;
+      RETURN "OK";
+    ENDIF
     IF c = "PN" THEN
       IF nf <> 2 OR NOT Slot(2, a) OR a < 1 RETURN "ER 12 bad arguments to PN";
       IF a > CAPACITY RETURN "ER 23 path of " + NumToStr(a, 0) + " exceeds buffer " + NumToStr(CAPACITY, 0);
