@@ -373,12 +373,19 @@ class _Problem:
                                   / np.bincount(self.view, minlength=self.n_views)))
 
 
-def _pnp(camera: CameraModel, ob: Observation) -> tuple[Pose, float]:
-    ok, rvec, tvec = cv2.solvePnP(ob.object_points.astype(np.float64),
-                                  ob.image_points.astype(np.float64), camera.K, camera.dist,
-                                  flags=cv2.SOLVEPNP_ITERATIVE)
+def _pnp(camera: CameraModel, ob: Observation, name: str = "view") -> tuple[Pose, float]:
+    if len(ob.image_points) < 6 or len(ob.image_points) != len(ob.object_points):
+        raise CalibrationError(f"{name}: {len(ob.image_points)} corners for "
+                               f"{len(ob.object_points)} board points; need at least 6, matched")
+    try:
+        ok, rvec, tvec = cv2.solvePnP(ob.object_points.astype(np.float64),
+                                      ob.image_points.astype(np.float64), camera.K, camera.dist,
+                                      flags=cv2.SOLVEPNP_ITERATIVE)
+    except cv2.error as err:
+        raise CalibrationError(f"{name}: the board pose cannot be found (solvePnP: {err})") \
+            from err
     if not ok:
-        raise CalibrationError("solvePnP failed")
+        raise CalibrationError(f"{name}: the board pose cannot be found (solvePnP failed)")
     rvec, tvec = cv2.solvePnPRefineLM(ob.object_points.astype(np.float64),
                                       ob.image_points.astype(np.float64), camera.K, camera.dist,
                                       rvec, tvec)
@@ -468,7 +475,7 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
     if camera is None:
         raise CalibrationError("solve_hand_eye: corner observations need the camera intrinsics")
     obs = [o for o in observations if isinstance(o, Observation)]
-    pnp = [_pnp(camera, o) for o in obs]
+    pnp = [_pnp(camera, o, nm[i]) for i, o in enumerate(obs)]
     T_cb = [p[0] for p in pnp]
     motions = A if eye_to_hand else [invert(T) for T in A]
     gripper = [invert(T) for T in A] if eye_to_hand else A

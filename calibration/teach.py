@@ -141,7 +141,8 @@ def collection_progress(views: Sequence[ViewRecord], image_size: tuple[int, int]
 def solve_views(views: Sequence[ViewRecord], board: BoardSpec, image_size: tuple[int, int], *,
                 eye_to_hand: bool = False, holdout_every: int = 5, camera_name: str = "seam_cam",
                 robot_sigma_mm: float = 0.05, robot_sigma_deg: float = 0.01,
-                metadata: dict[str, Any] | None = None) -> tuple[Calibration, dict[str, Any]]:
+                metadata: dict[str, Any] | None = None, **hand_eye_options: Any
+                ) -> tuple[Calibration, dict[str, Any]]:
     """Intrinsics + hand-eye from collected views, validated on held-out views.
 
     1. Intrinsics from every view with the board (outlier views rejected).
@@ -150,6 +151,9 @@ def solve_views(views: Sequence[ViewRecord], board: BoardSpec, image_size: tuple
        without them, and their reprojection error (with their recorded poses) checked against the
        same limit as the solution's own residual.
     4. The calibration of step 2 (all good views) is returned with its metadata.
+
+    ``hand_eye_options`` go to :func:`calibration.handeye.solve_hand_eye` (e.g. ``max_rms_px``,
+    ``max_consistency_mm``, ``max_consistency_deg``, ``method``).
 
     Raises :class:`CalibrationError` when the board is in too few views (naming the views
     without a board), for degenerate robot motion, too many bad views, bad residuals, or a
@@ -176,7 +180,8 @@ def solve_views(views: Sequence[ViewRecord], board: BoardSpec, image_size: tuple
            for v in found if v.detection is not None]
     A = [v.T_base_flange for v in found]
     kw: dict[str, Any] = {"eye_to_hand": eye_to_hand, "refine_intrinsics": True,
-                          "robot_sigma_mm": robot_sigma_mm, "robot_sigma_deg": robot_sigma_deg}
+                          "robot_sigma_mm": robot_sigma_mm, "robot_sigma_deg": robot_sigma_deg,
+                          **hand_eye_options}
     he = solve_hand_eye(A, obs, intr.camera, names=names, **kw)
     validation = _validate(he, found, A, obs, intr, holdout_every, kw)
     calib = Calibration(he.camera or intr.camera)

@@ -65,6 +65,14 @@ def register(sub: Any) -> None:
                    help="robot pose noise per axis, mm (default 0.05)")
     p.add_argument("--robot-sigma-deg", type=float, default=0.01,
                    help="robot orientation noise per axis, deg (default 0.01)")
+    p.add_argument("--max-rms-px", type=float, default=3.0,
+                   help="refuse a hand-eye whose reprojection RMS (recorded poses) is above this "
+                   "(default 3 px)")
+    p.add_argument("--max-consistency", type=float, nargs=2, default=[0.5, 0.1],
+                   metavar=("MM", "DEG"),
+                   help="refuse a hand-eye whose robot poses and images disagree by more than "
+                   "this RMS (default 0.5 mm 0.1 deg; raise it for a robot whose absolute "
+                   "accuracy is worse)")
     p.add_argument("--pivot-mm", type=float, default=350.0,
                    help="--auto: distance along tool z about which poses are tilted (default 350)")
     p.add_argument("--workspace", metavar="X0,Y0,Z0,X1,Y1,Z1",
@@ -103,7 +111,9 @@ def _run(args: argparse.Namespace) -> int:
                               f"{', '.join(FORMATS)}")
         exports.append((fmt, path))
     solve_kw = {"holdout_every": args.holdout_every, "robot_sigma_mm": args.robot_sigma_mm,
-                "robot_sigma_deg": args.robot_sigma_deg}
+                "robot_sigma_deg": args.robot_sigma_deg, "max_rms_px": args.max_rms_px,
+                "max_consistency_mm": args.max_consistency[0],
+                "max_consistency_deg": args.max_consistency[1]}
     if args.images is not None:
         from calibration.teach import calibrate_images
 
