@@ -14,6 +14,9 @@ fixed camera (``T_base_cam``). Formats:
   ``T_base_cam``).
 - ``abb_tooldata`` -- the camera frame as RAPID ``tooldata``'s ``tframe`` (pose): ``[[x, y, z],
   [q1, q2, q3, q4]]`` in **mm**, scalar first, as ABB writes it; eye-in-hand only.
+- ``view_camera_pose`` -- for a fixed camera: the ``camera_pose`` entry of a view file
+  (DESIGN.md), ``{"camera_pose": {"position_mm": [...], "quaternion_wxyz": [...]}}``, to put in
+  the view files given to ``seamguide locate``.
 
 Quaternions are converted from the product's w, x, y, z only here, at this boundary.
 """
@@ -29,7 +32,7 @@ from calibration.calibration_file import Calibration
 from controller.errors import CalibrationError, ConfigError
 from controller.poses import Pose, pos_quat_from_pose, pose_from_pos_quat
 
-FORMATS = ("easy_handeye", "tf", "matrix", "abb_tooldata")
+FORMATS = ("easy_handeye", "tf", "matrix", "abb_tooldata", "view_camera_pose")
 
 
 def _mounting(calib: Calibration) -> tuple[Pose, bool]:
@@ -76,6 +79,15 @@ def export_hand_eye(calib: Calibration, fmt: str, *, base_frame: str = "base_lin
 
         key = "T_flange_cam" if on_hand else "T_base_cam"
         return json.dumps({key: np.round(T, 9).tolist(), "unit": "mm"}, indent=2) + "\n"
+    if fmt == "view_camera_pose":
+        import json
+
+        from controller.poses import pose_to_dict
+
+        if on_hand:
+            raise CalibrationError("view_camera_pose is for a camera fixed in the cell; this "
+                                   "calibration is of a camera on the flange (hand_eye)")
+        return json.dumps({"camera_pose": pose_to_dict(T)}) + "\n"
     if not on_hand:
         raise CalibrationError("abb_tooldata describes a camera on the flange; this calibration "
                                "is of a fixed camera (camera_pose)")

@@ -198,3 +198,11 @@ def test_eye_to_hand_folder_writes_camera_pose(tmp_path):
     out = tmp_path / "fixed.yaml"
     save_calibration(out, calib)
     assert load_calibration(out).T_base_cam is not None
+    # The fixed camera's pose, ready for the view files of `seamguide locate`.
+    import json
+
+    from calibration.export import export_hand_eye
+    from controller.poses import pose_from_dict
+
+    doc = json.loads(export_hand_eye(calib, "view_camera_pose"))
+    assert pose_error(pose_from_dict(doc["camera_pose"]), calib.T_base_cam)[0] < 1e-5
