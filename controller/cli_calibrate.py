@@ -163,6 +163,7 @@ def _teach(args: argparse.Namespace, board: Any, solve_kw: dict[str, Any]) -> tu
         if first.shape != (6,):
             raise ConfigError(f"--first-joints {args.first_joints!r}: needs six values")
     robot = open_teach_robot(args.port)
+    camera: Any = None
     try:
         if first is not None:
             robot.move_joints(first, 120.0)
@@ -179,6 +180,8 @@ def _teach(args: argparse.Namespace, board: Any, solve_kw: dict[str, Any]) -> tu
                          **solve_kw)
     finally:
         robot.close()
+        if camera is not None:
+            camera.close()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -245,13 +248,12 @@ class TeachCameraAdapter:
         self.url = url
 
     def grab(self, timeout_s: float = 5.0) -> Any:
-        """One frame."""
-        for n in ("grab", "capture", "read", "frame"):
-            m = getattr(self.camera, n, None)
-            if callable(m):
-                img = m(timeout_s=timeout_s) if n in ("grab", "capture") else m()
-                return np.asarray(getattr(img, "image", img))
-        raise ConfigError(f"the camera driver {type(self.camera).__name__} cannot take a frame")
+        """One frame (the driver applies its own deadline; CameraError if none comes)."""
+        return np.asarray(self.camera.grab())
+
+    def close(self) -> None:
+        """Release the camera."""
+        self.camera.close()
 
     def identity(self) -> dict[str, Any]:
         """The camera's identity for the calibration metadata."""
@@ -293,6 +295,6 @@ def open_teach_camera(url: str, robot: TeachRobotAdapter, board: Any, model: Any
                                   T_flange_board=make_pose(Rfb, np.array([0, 0, 150.0]) - Rfb @ cb),
                                   seed=int(opts.get("seed", 0)))
         return SimBoardCamera(cam, board, robot.flange_pose, seed=int(opts.get("seed", 0)))
-    from drivers.cameras import open_camera  # type: ignore[import-not-found,unused-ignore]
+    from drivers.cameras import open_camera
 
     return TeachCameraAdapter(open_camera(url), url)
