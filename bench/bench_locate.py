@@ -56,6 +56,17 @@ def _cache_paths(kind: str, seed: int, difficulty: str) -> tuple[Path, Path, Pat
     return d / f"{kind}-{seed}-1.png", d / f"{kind}-{seed}-2.png", d / f"{kind}-{seed}.npz"
 
 
+def view_poses(scene, cell, roll_deg: float | None = None) -> list[np.ndarray]:
+    """The product's two views (controller/dry_run.py): across the seam, view 2 rolled."""
+    from controller.dry_run import VIEW2_ROLL_DEG
+    from controller.poses import rotation_about
+
+    poses = suggest_view_poses(scene, cell.camera)
+    roll = VIEW2_ROLL_DEG if roll_deg is None else roll_deg
+    poses[1] = poses[1] @ make_pose(rotation_about([0, 0, 1], np.radians(roll)))
+    return poses
+
+
 def third_view(scene, standoff_mm: float = 350.0, offset_mm: float = 100.0) -> np.ndarray:
     """A verification view displaced *along* the seam (the other two are displaced across it), so
     that the three flange rotations are not about one common axis."""
@@ -80,7 +91,7 @@ def render_pair(args: tuple[str, int, str]) -> str:
     pz.parent.mkdir(parents=True, exist_ok=True)
     cell = default_sim_cell()
     scene = make_scene(kind, seed, difficulty)
-    poses = [*suggest_view_poses(scene, cell.camera), third_view(scene)]
+    poses = [*view_poses(scene, cell), third_view(scene)]
     p3 = p1.with_name(p1.name.replace("-1.png", "-3.png"))
     truth = {}
     for i, (T, p) in enumerate(zip(poses, (p1, p2, p3), strict=True)):
@@ -226,11 +237,13 @@ def gross_error_catch_rate(cell, n_scenes: int = 20, trials: int = 3) -> dict[st
     then equivalent to moving that axis, and the reconstruction shifts rigidly: nothing in the
     images can show it. Rolling view 2 about its optical axis breaks the symmetry.
     """
-    from controller.poses import rotation_about
+    from controller.dry_run import VIEW2_ROLL_DEG
 
-    layouts = {"2 views across the seam": (0.0, False),
+    layouts = {"2 views across the seam, same roll": (0.0, False),
+               f"2 views, view 2 rolled {VIEW2_ROLL_DEG:.0f} deg (the default)":
+                   (VIEW2_ROLL_DEG, False),
                "2 views, view 2 rolled 90 deg": (90.0, False),
-               "3 views (third along the seam)": (0.0, True)}
+               "3 views, same roll (third along the seam)": (0.0, True)}
     out = {}
     for name, (roll, third) in layouts.items():
         caught, errs = 0, []
@@ -239,8 +252,7 @@ def gross_error_catch_rate(cell, n_scenes: int = 20, trials: int = 3) -> dict[st
             kind = KINDS[i % len(KINDS)]
             scene = make_scene(kind, 2000 + i, "medium")
             P = scene.seam_points_mm
-            poses = suggest_view_poses(scene, cell.camera)
-            poses[1] = poses[1] @ make_pose(rotation_about([0, 0, 1], np.radians(roll)))
+            poses = view_poses(scene, cell, roll)
             if third:
                 poses.append(third_view(scene))
             curves = []

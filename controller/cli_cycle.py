@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -94,6 +95,19 @@ def _teach_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _save_overlay(path: Path, image: np.ndarray, det: Any) -> None:
+    import cv2
+
+    from controller.errors import InputError
+    from controller.jsonio import atomic_write_bytes
+    from controller.seam_overlay import draw_overlay
+
+    ok, buf = cv2.imencode(".png", draw_overlay(image, det))
+    if not ok:
+        raise InputError(f"could not encode the overlay {path}")
+    atomic_write_bytes(path, buf.tobytes())
+
+
 def _locate(args: argparse.Namespace) -> int:
     from calibration.calibration_file import load_calibration
     from controller.cycle import locate_output
@@ -111,17 +125,10 @@ def _locate(args: argparse.Namespace) -> int:
     obs = []
     for vpath in args.views:
         view = load_view(vpath)
-        image = load_image(view.image_path, expect_size=(calib.camera.width,
-                                                         calib.camera.height))
+        image = load_image(view.image_path, camera=calib.camera)
         det = detect_seam(image, camera=calib.camera)
         if args.overlay_dir:
-            from pathlib import Path
-
-            from controller.jsonio import atomic_write_bytes
-            from controller.seam_overlay import draw_overlay, encode_png
-
-            atomic_write_bytes(Path(args.overlay_dir) / f"{view.name}_overlay.png",
-                               encode_png(draw_overlay(image, det)))
+            _save_overlay(Path(args.overlay_dir) / f"{view.name}_overlay.png", image, det)
         obs.append(ViewObservation(calib.camera, camera_pose(view, calib), det.points_px,
                                    view.name))
     limits = job.quality if job else QualityLimits()

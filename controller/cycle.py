@@ -26,7 +26,7 @@ import numpy as np
 from calibration.calibration_file import Calibration, calibration_to_dict
 from controller.cycle_machine import CycleState, build_machine
 from controller.cycle_record import CycleRecord
-from controller.errors import CameraError, CycleAborted, RobotFault, SeamguideError
+from controller.errors import CameraError, CycleAborted, InputError, RobotFault, SeamguideError
 from controller.job import Job
 from controller.kinematics import RobotModel, check_pose_consistency, flange_pose, irb2400
 from controller.locate import Seam3D, ViewObservation, locate_seam
@@ -242,14 +242,15 @@ class WeldCycle:
         return self.calibration.T_flange_cam
 
     def _capture(self, i: int, name: str) -> None:
+        from controller.image_io import check_image
+
         self._remaining(self.job.timeouts.capture_s)
-        image = self.camera.grab()
-        cam = self.calibration.camera
-        if image is None or image.ndim < 2 or image.shape[1] != cam.width \
-                or image.shape[0] != cam.height:
-            shape = None if image is None else image.shape
-            raise CameraError(f"view {name}: the camera delivered an image of shape {shape}, "
-                              f"the calibration is for {cam.width}x{cam.height}")
+        frame = self.camera.grab()
+        try:
+            image = check_image(frame, name=f"view {name} from the camera",
+                                camera=self.calibration.camera)
+        except InputError as err:  # a black, saturated or wrong-size frame is a camera fault
+            raise CameraError(str(err), view=name) from err
         self.result.images.append(image)
         if self.record is not None:
             self.record.save_image(f"{name}.png", image)

@@ -49,10 +49,11 @@ class DryRunReport:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-#: View 2 is rolled this much about its optical axis. Two views that differ by a rotation about
-#: one axis cannot show a wrong hand-eye transform (the reconstruction just shifts); rolling one
-#: view lets the quality checks catch a 5 mm hand-eye error in most cases (bench/bench_locate.py).
-VIEW2_ROLL_DEG = 90.0
+#: View 2 is rolled about its optical axis so that the seam runs along the image diagonal. Two
+#: views that differ by a rotation about one axis cannot show a wrong hand-eye transform (the
+#: reconstruction just shifts); rolling one view lets the quality checks catch a 5 mm hand-eye
+#: error in most cases (bench/bench_locate.py), and the diagonal is the image's longest line.
+VIEW2_ROLL_DEG = float(np.degrees(np.arctan2(1704.0, 2272.0)))
 
 
 def view_joints(scene: Any, cell: Any, n: int = 2, near: tuple[float, ...] = HOME_JOINTS_DEG,

@@ -45,6 +45,8 @@ class QualityLimits:
     max_degenerate_fraction: float = 0.15
     max_endpoint_gap_mm: float = 1.0
     min_length_mm: float = 10.0
+    require_ends_in_view: bool = True
+    border_margin_px: float = 12.0
 
 
 @dataclass
@@ -157,7 +159,9 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     in_span[span] = True
     coverage = float((s_ref[last] - s_ref[first]) / max(s_ref[-1], 1e-9))
     degenerate_fraction = float(np.mean(degenerate_any[span] & ~ok[span]))
-    endpoint_gaps = _endpoint_gaps(views, curves, dense)
+    endpoint_gaps = _endpoint_gaps(views, curves, dense, limits.border_margin_px)
+    cut = [f"{v.name} ({'start' if e == 0 else 'end'})" for v, c in zip(views, curves, strict=True)
+           for e in (0, -1) if not v.camera.in_image(c[e][None], limits.border_margin_px)[0]]
     quality = {
         "views": V,
         "points_triangulated": int(ok.sum()),
@@ -170,6 +174,7 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         "angle_deg_min": float(np.nanmin(angle[span])),
         "angle_deg_median": float(np.nanmedian(angle[span])),
         "endpoint_gap_mm": endpoint_gaps,
+        "ends_cut_by_image_border": cut,
         "length_mm": float(arc_length(dense)[-1]),
     }
     if nominal_region is not None:
@@ -183,7 +188,8 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
                   reprojection_px=reproj, angle_deg=angle[span], quality=quality)
 
 
-def _endpoint_gaps(views: list[ViewObservation], curves: list[F64], dense: F64) -> list[float]:
+def _endpoint_gaps(views: list[ViewObservation], curves: list[F64], dense: F64,
+                   margin_px: float) -> list[float]:
     """Per end of the located seam: how far (mm) any view's end ray passes from the 3D end point.
 
     End points are real image features (where the seam meets the sheet borders). Matched curve
@@ -199,7 +205,7 @@ def _endpoint_gaps(views: list[ViewObservation], curves: list[F64], dense: F64) 
             uv = v.camera.project(end3d[None], v.T_base_cam)[0]
             ends = c[[0, -1]]
             px = ends[int(np.argmin(np.linalg.norm(ends - uv, axis=1)))]
-            if not v.camera.in_image(px[None], 3.0)[0]:
+            if not v.camera.in_image(px[None], margin_px)[0]:
                 continue
             o, d = v.camera.pixel_rays(px[None], v.T_base_cam)
             r = end3d - o
@@ -251,6 +257,12 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
                         f"job's nominal seam centre, outside its {q['nominal_radius_mm']:.0f} mm "
                         f"region: another edge was probably taken for the seam, or the part is "
                         f"not where the job expects it")
+    if lim.require_ends_in_view and q["ends_cut_by_image_border"]:
+        where = ", ".join(q["ends_cut_by_image_border"])
+        problems.append(f"the seam runs out of the image in {where}: its end is not seen, so "
+                        f"the seam could be longer than what would be "
+                        f"welded; move that view back or aim it so that the whole seam is in the "
+                        f"image")
     if q["length_mm"] < lim.min_length_mm:
         problems.append(f"the located seam is only {q['length_mm']:.1f} mm long")
     if problems:

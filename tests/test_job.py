@@ -44,7 +44,7 @@ def test_bad_job_files_name_file_and_key(tmp_path, edit, key):
 
 def test_untaught_view_is_refused_at_cycle_time(tmp_path):
     text = EXAMPLE.read_text().replace(
-        "joints_deg = [3.5925, 24.3684, 31.4213, -9.2922, 73.856, -32.1061]\n", "")
+        "joints_deg = [2.5267, 29.5969, 30.0126, -11.0934, 75.1567, -85.9897]\n", "")
     job = load_job(_write(tmp_path, text))
     with pytest.raises(ConfigError, match="view2 has not been taught"):
         job.require_taught()

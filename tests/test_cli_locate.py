@@ -1,0 +1,67 @@
+"""`seamguide locate` on rendered views written as view files (the DESIGN.md contracts)."""
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from calibration.calibration_file import Calibration, save_calibration
+from controller.cli import main
+from controller.dry_run import view_joints
+from controller.kinematics import flange_pose, irb2400
+from controller.triangulate import PolylineDistance
+from controller.view_file import view_to_dict
+from drivers.sim_cell import default_sim_cell
+from drivers.sim_render import render
+from drivers.sim_scene import make_scene
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def views(tmp_path_factory):
+    d = tmp_path_factory.mktemp("locate")
+    cell = default_sim_cell()
+    scene = make_scene("arc", 4, "medium")
+    robot = irb2400()
+    save_calibration(d / "calib.yaml", Calibration(cell.camera, cell.T_flange_cam))
+    paths = []
+    for i, j in enumerate(view_joints(scene, cell)):
+        T_base_cam = flange_pose(robot, j) @ cell.T_flange_cam
+        cv2.imwrite(str(d / f"v{i + 1}.png"), render(scene, cell.camera, T_base_cam, seed=4).image)
+        doc = (view_to_dict(f"v{i + 1}.png", joints_deg=j) if i == 0 else
+               view_to_dict(f"v{i + 1}.png", T_base_flange=flange_pose(robot, j)))
+        (d / f"v{i + 1}.json").write_text(json.dumps(doc))
+        paths.append(str(d / f"v{i + 1}.json"))
+    return d, paths, scene
+
+
+def test_locate_output_contract_and_accuracy(views, capsys):
+    d, paths, scene = views
+    out = d / "seam.json"
+    assert main(["locate", "--calibration", str(d / "calib.yaml"), "--view", paths[0],
+                 "--view", paths[1], "--output", str(out), "--overlay-dir", str(d)]) == 0
+    doc = json.loads(out.read_text())
+    assert set(doc) == {"seam_points_mm", "weld_path", "quality"}
+    pts = np.array(doc["seam_points_mm"])
+    err = PolylineDistance(scene.seam_points_mm)(pts)
+    assert np.sqrt(np.mean(err**2)) < 0.15 and err.max() < 0.5
+    kinds = [t["kind"] for t in doc["weld_path"]]
+    assert kinds[0] == "approach" and kinds[-1] == "depart" and kinds.count("weld") == len(pts)
+    assert (d / "v1_overlay.png").is_file()
+
+
+def test_locate_count_and_bad_inputs(views, capsys, tmp_path):
+    d, paths, _ = views
+    assert main(["locate", "--calibration", str(d / "calib.yaml"), "--view", paths[0],
+                 "--view", paths[1], "--count", "15", "--no-path"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert len(doc["seam_points_mm"]) == 15 and doc["weld_path"] == []
+    assert main(["locate", "--calibration", str(d / "calib.yaml"), "--view", paths[0]]) == 3
+    assert "at least two views" in capsys.readouterr().err
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"image": "v1.png"}))
+    assert main(["locate", "--calibration", str(d / "calib.yaml"), "--view", paths[0],
+                 "--view", str(bad)]) == 3
+    assert "bad.json" in capsys.readouterr().err
