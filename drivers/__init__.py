@@ -1,1 +1,1 @@
-"""seamguide drivers: everything that touches the outside world (robot link, cameras, simulators)."""
+"""seamguide drivers: all that touches the outside world (robot link, cameras, simulators)."""
