@@ -39,6 +39,7 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import CubicSpline
 from scipy.signal import savgol_filter
 from scipy.special import erf
 
@@ -67,7 +68,7 @@ class DetectParams:
     gamma: float = 2.2
     coarse_factor: int = 0
     valley_r_coarse: int = 3
-    min_depth: float = 0.15
+    min_depth: float = 0.2
     min_length_px: float = 300.0
     step_px: float = 4.0
     half_width_px: float = 14.0
@@ -75,7 +76,8 @@ class DetectParams:
     fit_iterations: int = 7
     max_gap_px: float = 16.0
     min_profile_depth: float = 0.25
-    bridge_px: float = 30.0
+    bridge_px: float = 200.0
+    join_px: float = 200.0
     ambiguity_ratio: float = 0.6
     min_confidence: float = 0.3
     max_candidates: int = 4
@@ -122,7 +124,7 @@ class _Candidate:
     valid_frac: float = 0.0
     resid: float = 0.0
     score: float = 0.0
-    ends_ok: tuple[bool, bool] = (False, False)
+    end_kinds: tuple[str, str] = ("open", "open")
     why_rejected: str = ""
 
 
@@ -244,7 +246,8 @@ def _coarse_candidates(grey: NDArray[np.uint8], lut: F64,
     H, W = grey.shape
     f = p.coarse_factor or max(1, min(6, int(round(W / 560))))
     small = grey if f == 1 else cv2.resize(grey, (W // f, H // f), interpolation=cv2.INTER_AREA)
-    img = cv2.GaussianBlur(lut.astype(np.float32)[small], (0, 0), 0.7)
+    # No smoothing: a thin gap is at most a pixel wide here and blurring halves its depth.
+    img = lut.astype(np.float32)[small]
     r = p.valley_r_coarse
     rd = max(1, int(round(r / np.sqrt(2))))
     best = np.zeros_like(img)
@@ -275,8 +278,53 @@ def _coarse_candidates(grey: NDArray[np.uint8], lut: F64,
         if length < p.min_length_px:
             continue
         cands.append(_Candidate(poly_full, float(np.sum(wts)) * f, length))
+    cands = _join_candidates(cands, p.join_px)
     cands.sort(key=lambda c: -c.coarse_score)
     return cands, len(idx)
+
+
+def _join_candidates(cands: list[_Candidate], join_px: float) -> list[_Candidate]:
+    """Join candidates that continue each other across a short hole (glare, a dot on the seam)."""
+    cos_max = np.cos(np.radians(25.0))
+
+    def end_dir(poly: F64, at_end: bool) -> tuple[F64, F64]:
+        n = min(len(poly) - 1, 10)
+        e, q = (poly[-1], poly[-1 - n]) if at_end else (poly[0], poly[n])
+        t = e - q
+        return e, t / (np.linalg.norm(t) + 1e-12)
+
+    merged = True
+    while merged and len(cands) > 1:
+        merged = False
+        for i in range(len(cands)):
+            for j in range(i + 1, len(cands)):
+                a, b = cands[i].polyline, cands[j].polyline
+                for a_end in (True, False):
+                    for b_end in (False, True):
+                        ea, ta = end_dir(a, a_end)
+                        eb, tb = end_dir(b, b_end)
+                        v = eb - ea
+                        d = float(np.linalg.norm(v))
+                        if d > join_px:
+                            continue
+                        v = v / (d + 1e-12)
+                        if d > 3 and (ta @ v < cos_max or tb @ -v < cos_max):
+                            continue
+                        pa = a if a_end else a[::-1]
+                        pb = b[::-1] if b_end else b
+                        cands[i] = _Candidate(np.vstack([pa, pb]),
+                                              cands[i].coarse_score + cands[j].coarse_score,
+                                              cands[i].length_px + cands[j].length_px + d)
+                        del cands[j]
+                        merged = True
+                        break
+                    if merged:
+                        break
+                if merged:
+                    break
+            if merged:
+                break
+    return cands
 
 
 def _order_pixels(xs: NDArray[Any], ys: NDArray[Any], w: NDArray[Any]) -> F64 | None:
@@ -522,40 +570,71 @@ def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -
     ok = valid[sel]
     pts_run = fit["centre"][sel].copy()
     t = np.arange(len(sel), dtype=np.float64)
-    for k in range(2):
-        pts_run[~ok, k] = np.interp(t[~ok], t[ok], pts_run[ok, k])
+    if (~ok).any():
+        # Bridged samples (a hole in the gap) follow a cubic through the measured ones.
+        pts_run[~ok] = CubicSpline(t[ok], pts_run[ok], axis=0)(t[~ok])
     win = int(min((len(sel) - 1) // 2 * 2 + 1, 2 * int(round(14 / p.step_px)) + 1))
     if win >= 5:
         sm = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
         dev = np.linalg.norm(pts_run - sm, axis=1)
         mad = np.median(dev[ok]) + 1e-6
         good = ok & (dev < max(4 * mad, 0.6))
-        for k in range(2):
-            pts_run[~good, k] = np.interp(t[~good], t[good], pts_run[good, k])
+        if (~good).any():
+            pts_run[~good] = CubicSpline(t[good], pts_run[good], axis=0)(t[~good])
         pts_run = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
     depth_med = float(np.median(fit["depth"][sel][ok]))
     # Honest ends: where the sheets end (or the image does), found from the two sides separately.
+    # Profiles within a profile length of an end may be crossed by the sheet border, so the
+    # last stretch of the curve is extrapolated from the samples before it.
     w_med = float(np.median(fit["width"][sel][ok]))
-    ends = []
-    keep = np.ones(len(pts_run), bool)
+    w_run = fit["width"][sel]
+    m = int(np.ceil(p.half_width_px / p.step_px)) + 1
+    n_fit = 12
+    use_extrap = len(pts_run) >= 2 * (m + n_fit)
+    parts: list[F64] = []
+    end_kinds: list[str] = []
+    lo, hi = 0, len(pts_run)
     for first in (True, False):
-        e_pt = pts_run[0] if first else pts_run[-1]
-        nb = pts_run[min(3, len(pts_run) - 1)] if first else pts_run[max(0, len(pts_run) - 4)]
-        tang = e_pt - nb
-        tang /= np.linalg.norm(tang) + 1e-12
-        k_end = _end_offset(grey, lut, e_pt, tang, w_med)
-        end = e_pt + k_end * tang
-        along = (pts_run - e_pt) @ tang
-        keep &= along < k_end - 0.5 * p.step_px
-        ends.append(end)
-    body = pts_run[keep]
-    w_run = fit["width"][sel][keep]
-    if len(body) < 2:
+        seq = pts_run if not first else pts_run[::-1]  # seq runs toward this end
+        L = len(seq)
+        if use_extrap:
+            tt = np.arange(L - m - n_fit, L - m, dtype=np.float64)
+            coef = np.polyfit(tt - (L - 1), seq[L - m - n_fit:L - m], 2)
+            e_pt = np.array([np.polyval(coef[:, k], 0.0) for k in range(2)])
+            d_pt = np.array([np.polyval(np.polyder(coef[:, k]), 0.0) for k in range(2)])
+            tang = d_pt / (np.linalg.norm(d_pt) + 1e-12)
+        else:
+            e_pt = seq[-1]
+            tang = seq[-1] - seq[max(0, L - 4)]
+            tang /= np.linalg.norm(tang) + 1e-12
+        k_end, end_kind = _end_offset(grey, lut, e_pt, tang, w_med)
+        end_kinds.append(end_kind)
+        if use_extrap:
+            # Extrapolated points from the last trusted sample to the end, one per step.
+            t_end = k_end / max(float(np.linalg.norm(d_pt)), 1e-9)
+            tq = np.arange(-m + 1.0, t_end, 1.0)
+            tq = np.append(tq, t_end)
+            ext = np.column_stack([np.polyval(coef[:, k], tq) for k in range(2)])
+            keep_n = L - m
+        else:
+            ext = (e_pt + k_end * tang)[None, :]
+            along = (seq - e_pt) @ tang
+            keep_n = int(np.sum(along < k_end - 0.5 * p.step_px))
+        if first:
+            lo = L - keep_n
+            parts.insert(0, ext[::-1])
+        else:
+            hi = keep_n
+            parts.append(ext)
+    c.end_kinds = (end_kinds[0], end_kinds[1])
+    if hi - lo < 2:
         c.why_rejected = "seam candidate collapsed when its ends were measured"
         return
-    pts_run = np.vstack([ends[0], body, ends[1]])
+    body = pts_run[lo:hi]
+    pts_run = np.vstack([parts[0], body, parts[1]])
     c.points = pts_run
-    c.width = np.concatenate([[w_run[0]], w_run, [w_run[-1]]])
+    wb = w_run[lo:hi]
+    c.width = np.concatenate([np.full(len(parts[0]), wb[0]), wb, np.full(len(parts[1]), wb[-1])])
     c.depth = depth_med
     c.valid_frac = float(ok.mean())
     c.resid = float(np.median(fit["rms"][sel][ok] / np.maximum(fit["contrast"][sel][ok], 1e-6)))
@@ -564,11 +643,19 @@ def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -
         c.why_rejected = f"gap run only {length:.0f} px long (< {p.min_length_px:.0f})"
         return
     c.length_px = length
+    if c.end_kinds == ("open", "open"):
+        c.why_rejected = (f"dark line of {length:.0f} px fades out inside the sheet at both ends "
+                          "(a pen mark or scratch, not a joint running border to border)")
+        return
     c.score = length * c.depth * c.valid_frac
 
 
-def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float) -> float:
-    """Distance (px, along ``tang``) from ``e_pt`` to the seam's end.
+def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
+                w_med: float) -> tuple[float, str]:
+    """Distance (px, along ``tang``) from ``e_pt`` to the seam's end, and what ends it there.
+
+    The kind is ``"sheet border"``, ``"image border"`` or ``"open"`` (the gap fades out inside a
+    sheet: a pen mark or scratch does that, a joint does not).
 
     The end is where the sheets end. Each side of the gap is read on a line parallel to the
     centreline just outside the gap; where a sheet border crosses that line the side's brightness
@@ -593,15 +680,20 @@ def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: 
         if k2 is not None and abs(k2 - k1) < 2 * delta:
             extrapolated.append(2 * k1 - k2)  # the border line followed in to the centreline
     k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
+    kind = "sheet border"
     if len(crossings) == 2:
         k = 0.5 * (crossings[0] + crossings[1])
     elif extrapolated:
         k = extrapolated[0]
     elif crossings:
         k = crossings[0]
+    elif k_border < ks[-1]:
+        k, kind = k_border, "image border"
     else:
-        k = k_border if k_border < ks[-1] else 0.0
-    return float(min(k, k_border))
+        k, kind = 0.0, "open"
+    if k_border <= k:
+        k, kind = k_border, "image border"
+    return float(k), kind
 
 
 def _side_crossing(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> float | None:
@@ -634,24 +726,32 @@ def _border_crossing(e_pt: F64, tang: F64, W: int, H: int, default: float) -> fl
     return float(min(ts)) if ts else default
 
 
-def _longest_bridged_run(valid: NDArray[np.bool_], bridge: int,
-                         min_island: int) -> tuple[int, int] | None:
-    valid = valid.copy()
-    # Remove islands of valid samples shorter than min_island.
+def _longest_bridged_run(valid: NDArray[np.bool_], bridge: int, min_island: int,
+                         bridge_short: int | None = None) -> tuple[int, int] | None:
+    """Longest run of valid samples after joining islands across holes.
+
+    Islands shorter than ``min_island`` are dropped; a hole of up to ``bridge_short`` samples is
+    always bridged, one of up to ``bridge`` only between two islands of at least 4 x min_island
+    (a long hole is bridged only when the seam is clearly seen on both sides of it).
+    """
+    short = max(1, bridge // 6) if bridge_short is None else bridge_short
     m = np.concatenate([[0], valid.astype(np.int8), [0]])
     st, en = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
-    for a, b in zip(st, en, strict=True):
-        if b - a < min_island:
-            valid[a:b] = False
-    idx = np.flatnonzero(valid)
-    if idx.size < 2:
+    islands = [(int(a), int(b)) for a, b in zip(st, en, strict=True) if b - a >= min_island]
+    if not islands:
         return None
-    breaks = np.flatnonzero(np.diff(idx) > bridge + 1)
-    starts = np.concatenate([[0], breaks + 1])
-    ends = np.concatenate([breaks, [idx.size - 1]])
-    lens = idx[ends] - idx[starts]
-    k = int(np.argmax(lens))
-    return int(idx[starts[k]]), int(idx[ends[k]])
+    runs = [list(islands[0])]
+    last_len = islands[0][1] - islands[0][0]
+    for a, b in islands[1:]:
+        hole = a - runs[-1][1]
+        long_both = last_len >= 4 * min_island and b - a >= 4 * min_island
+        if hole <= short or (hole <= bridge and long_both):
+            runs[-1][1] = b
+        else:
+            runs.append([a, b])
+        last_len = b - a
+    a, b = max(runs, key=lambda r: r[1] - r[0])
+    return a, b - 1
 
 
 # ---------------------------------------------------------------------------------------------
@@ -663,6 +763,10 @@ def _confidence(c: _Candidate, ratio: float) -> tuple[float, list[str]]:
                f"relative gap depth {c.depth:.2f}, fit residual {100 * c.resid:.1f} % of depth"]
     conf = (min(1.0, c.valid_frac / 0.9) * min(1.0, c.depth / 0.4)
             * max(0.0, 1.0 - max(0.0, c.resid - 0.05) * 4) * (1.0 - 0.5 * ratio))
+    n_open = sum(k == "open" for k in c.end_kinds)
+    reasons.append(f"ends at: {c.end_kinds[0]}, {c.end_kinds[1]}")
+    if n_open:
+        conf *= 0.6
     if ratio > 0:
         reasons.append(f"next candidate {100 * ratio:.0f} % as strong")
     else:
