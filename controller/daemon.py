@@ -95,6 +95,7 @@ class Daemon:
         self.camera: Any = None
         self.calibration: Calibration | None = None
         self.robot_state = "disconnected"
+        self.reloads = 0
         self.camera_state = "closed"
         self._backoff = self.cfg.robot.reconnect_min_s
         self._server: ControlServer | None = None
@@ -147,6 +148,7 @@ class Daemon:
                     "job": self._cycle_job, "paused": self._paused,
                     "robot": self.robot_state, "camera": self.camera_state,
                     "queue_length": len(self._pending), "counters": dict(self.counters),
+                    "config_reloads": self.reloads,
                     "last_cycle": self.last_cycle}
 
     def wait_cycles(self, n: int, timeout_s: float) -> bool:
@@ -355,8 +357,10 @@ class Daemon:
             return
         devices_changed = (new.robot != self.cfg.robot or new.camera != self.cfg.camera
                            or new.sim != self.cfg.sim)
-        self.cfg = new
-        self.calibration = calib
+        with self._lock:
+            self.cfg = new
+            self.calibration = calib
+            self.reloads += 1
         if devices_changed:
             self._drop_robot()
         log.info("configuration reloaded from %s", self.config_path)

@@ -195,3 +195,20 @@ def test_sigterm_mid_weld_aborts_with_the_arc_off_and_exits(tmp_path):
     doc = read_record(rec)
     assert doc["status"] == "aborted" and "SIGTERM" in doc["reason"]
     assert not Path(sock).exists()
+
+
+def test_sighup_reload_between_cycles(running):
+    d, cfg = running
+    sock = cfg.control.socket
+    assert "unknown job" in send_request(sock, {"cmd": "start", "job": "demo2"})["error"]
+    path = Path(d.cfg.path)
+    path.write_text(path.read_text().replace('demo = "demo-job.toml"',
+                                             'demo = "demo-job.toml"\ndemo2 = "demo-job.toml"'))
+    d._reload.set()  # what the SIGHUP handler does
+    _wait_for(lambda: send_request(sock, {"cmd": "status"})["config_reloads"] == 1, 30,
+              "the reload")
+    assert send_request(sock, {"cmd": "start", "job": "demo2"})["ok"]
+    assert d.wait_cycles(1, 120)
+    path.write_text("this is = not [valid toml")
+    d._reload.set()
+    assert send_request(sock, {"cmd": "status"})["ok"]  # a bad new file keeps the old one

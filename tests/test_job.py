@@ -59,3 +59,14 @@ def test_teach_view_replaces_and_appends(tmp_path):
     with pytest.raises(ConfigError):
         teach_view(p, "view4", np.array([0.0, 0, 99, 0, 0, 0]))
     assert len(load_job(p).views) == 3  # nothing written on a refused teach
+
+
+def test_teach_view_cli_reads_the_robot(tmp_path, capsys):
+    from controller.cli import main
+
+    p = _write(tmp_path, EXAMPLE.read_text())
+    assert main(["teach-view", str(p), "view3", "--port", "mock://?seed=2"]) == 0
+    job = load_job(p)
+    assert job.views[-1].name == "view3"
+    assert job.views[-1].joints_deg == (0.0, 0.0, 0.0, 0.0, 30.0, 0.0)  # the mock's home
+    assert "view3" in capsys.readouterr().err

@@ -1,0 +1,42 @@
+"""Record rotation and systemd notification (no daemon needed)."""
+
+import os
+import socket
+
+from controller.cycle_record import CycleRecord, rotate_records
+from controller.sd_notify import notify, watchdog_interval_s
+
+
+def test_rotation_by_age_and_size_keeps_running_records(tmp_path):
+    recs = []
+    for i in range(4):
+        r = CycleRecord(tmp_path, "job", wall_clock=lambda i=i: 1000.0 + i)
+        r.save_text("big.bin", "x" * 400_000)
+        if i != 1:
+            r.finish("done")
+        recs.append(r)
+    for i, r in enumerate(recs):
+        os.utime(r.path / "record.json", (1000.0 + i * 86400, 1000.0 + i * 86400))
+    now = 1000.0 + 3 * 86400 + 10
+    deleted = rotate_records(tmp_path, max_age_days=2.5, max_total_mb=10, now=now)
+    assert deleted == [recs[0].path]  # the only finished record older than 2.5 days
+    assert recs[1].path.exists()  # incomplete: never deleted even though old
+    deleted = rotate_records(tmp_path, max_age_days=100, max_total_mb=0.5, now=now)
+    assert deleted == [recs[2].path]  # oldest finished first until under 0.5 MB
+    assert recs[3].path.exists() and recs[1].path.exists()
+
+
+def test_sd_notify_sends_datagrams(tmp_path, monkeypatch):
+    path = str(tmp_path / "notify.sock")
+    srv = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    srv.bind(path)
+    srv.settimeout(5)
+    monkeypatch.setenv("NOTIFY_SOCKET", path)
+    assert notify("READY=1")
+    assert srv.recv(100) == b"READY=1"
+    srv.close()
+    monkeypatch.setenv("WATCHDOG_USEC", "30000000")
+    monkeypatch.setenv("WATCHDOG_PID", str(os.getpid()))
+    assert watchdog_interval_s() == 15.0
+    monkeypatch.delenv("NOTIFY_SOCKET")
+    assert notify("READY=1") is False
