@@ -218,7 +218,7 @@ def run_opencv_chessboard():
                                    "rms_px": 0.3926}}
 
 
-def run_dry_run_check(seed=7, n_views=16, tmp=None):
+def run_dry_run_check(seed=7, n_views=14, tmp=None):
     """Teach a simulated session for the dry run's own cell (its camera and true hand-eye), write
     the calibration file through the folder solver, then run the dry run with it and with the
     exact calibration; returns both seam errors (mm)."""
