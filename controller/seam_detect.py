@@ -666,7 +666,7 @@ def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     """
     H, W = grey.shape
     nrm = np.array([-tang[1], tang[0]])
-    ks = np.arange(-12.0, 16.01, 0.5)
+    ks = np.arange(-28.0, 20.01, 0.5)
     q = e_pt + np.outer(ks, tang)
     delta = w_med / 2 + 2.5
     crossings: list[float] = []
@@ -687,7 +687,8 @@ def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
         k = extrapolated[0]
     elif crossings:
         k = crossings[0]
-    elif k_border < ks[-1]:
+    elif k_border < 40.0:
+        # Profiles fail within a profile length of the image border: the seam runs out there.
         k, kind = k_border, "image border"
     else:
         k, kind = 0.0, "open"
@@ -698,17 +699,21 @@ def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
 
 def _side_crossing(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> float | None:
     """Where the brightness along the line ``ps`` (at offsets ``ks``) changes from in to out."""
-    val, _ = _bilinear(grey, lut, ps[:, 0], ps[:, 1])
+    val, inside = _bilinear(grey, lut, ps[:, 0], ps[:, 1])
     val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
-    lvl_in = float(np.median(val[ks <= -6]))
-    lvl_out = float(np.median(val[ks >= 10]))
+    # Only samples inside the image count (outside, the border pixels are repeated).
+    if np.sum(inside & (ks <= -14)) < 4 or np.sum(inside & (ks >= 12)) < 4:
+        return None
+    n_ok = int(np.argmin(inside)) if not inside.all() else len(ks)
+    lvl_in = float(np.median(val[inside & (ks <= -14)]))
+    lvl_out = float(np.median(val[inside & (ks >= 12)]))
     if abs(lvl_in - lvl_out) < 0.25 * max(lvl_in, 1e-6):
         return None
     half = 0.5 * (lvl_in + lvl_out)
     inside_side = np.sign(lvl_in - half) * (val - half) > 0
-    n_in = int(np.sum(ks <= -6))
+    n_in = int(np.sum(ks <= -14))
     j = int(np.argmin(inside_side[n_in:])) + n_in
-    if inside_side[j] or j == 0:
+    if inside_side[j] or j == 0 or (n_ok < len(ks) and j > n_ok):
         return None
     v0, v1 = val[j - 1], val[j]
     frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
