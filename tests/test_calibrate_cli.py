@@ -35,11 +35,14 @@ def folder(tmp_path_factory, session):
 
 def test_from_folder_writes_calibration(folder, session, tmp_path, capsys):
     out = tmp_path / "c.yaml"
+    out.write_text("an older calibration\n")
     he = tmp_path / "he.yaml"
     rc = main(["calibrate", "--from-folder", str(folder), "--board", SPEC, "--output", str(out),
-               "--export", f"easy_handeye:{he}", "--holdout-every", "4"])
+               "--export", f"easy_handeye:{he}", "--holdout-every", "4",
+               "--report", str(tmp_path / "r.json")])
     assert rc == 0
-    report = json.loads(capsys.readouterr().out)
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["validation"]["passed"]
     calib = load_calibration(out)
     assert calib.T_flange_cam is not None and calib.T_base_cam is None
     assert pose_error(calib.T_flange_cam, session.T_flange_cam)[0] < 0.5
@@ -48,10 +51,8 @@ def test_from_folder_writes_calibration(folder, session, tmp_path, capsys):
     assert calib.metadata["views_rejected"][0]["view"] == blurred[0]
     T, on_hand = pose_from_easy_handeye(he.read_text())
     assert on_hand and pose_error(T, calib.T_flange_cam)[0] < 1e-6
-    # Running again keeps the previous file.
-    assert main(["calibrate", "--from-folder", str(folder), "--board", SPEC, "--output",
-                 str(out), "--report", str(tmp_path / "r.json"), "--holdout-every", "0"]) == 0
-    assert (tmp_path / "c.prev.yaml").exists() and (tmp_path / "r.json").exists()
+    # The file that was there is kept.
+    assert (tmp_path / "c.prev.yaml").read_text() == "an older calibration\n"
 
 
 def test_images_intrinsics_only(folder, tmp_path, capsys):
@@ -138,17 +139,22 @@ def test_bad_arguments(tmp_path, capsys):
     assert "matches no file" in err and "needs --camera" in err and "no view files" in err
 
 
-def test_export_formats(folder):
-    from calibration.teach import calibrate_from_folder
+def test_export_formats():
+    from calibration.calibration_file import Calibration
+    from controller.poses import make_pose, rotation_about
 
-    calib, _ = calibrate_from_folder(folder, SPEC, holdout_every=0)
+    calib = Calibration(CAM, make_pose(rotation_about([1, 2, 3], 0.4), [95.0, -8.0, 60.0]))
     tf = export_hand_eye(calib, "tf").split()
     assert tf[-2:] == ["tool0", "camera_optical_frame"] and len(tf) == 9
     assert abs(float(tf[0]) * 1000 - calib.T_flange_cam[0, 3]) < 1e-3
     m = json.loads(export_hand_eye(calib, "matrix"))
     assert np.allclose(m["T_flange_cam"], calib.T_flange_cam, atol=1e-6)
     abb = export_hand_eye(calib, "abb_tooldata")
-    assert abb.startswith("[[") and abb.count(",") == 6
+    assert abb.startswith("[[95.000,-8.000,60.000],[") and abb.count(",") == 6
+    with pytest.raises(CalibrationError, match="fixed in the cell"):
+        export_hand_eye(calib, "view_camera_pose")
+    with pytest.raises(CalibrationError, match="intrinsics only"):
+        export_hand_eye(Calibration(CAM), "tf")
 
 
 @pytest.mark.slow

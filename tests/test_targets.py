@@ -92,7 +92,7 @@ def test_charuco_partial_view():
 def test_real_chessboard_images():
     b = parse_board_spec("chessboard:9x6:25")
     found = 0
-    for p in sorted(DATA.glob("left0*.jpg")):
+    for p in sorted(DATA.glob("left0*.jpg"))[:5]:
         d = detect_board(cv2.imread(str(p), cv2.IMREAD_GRAYSCALE), b)
         if d is not None:
             found += 1
@@ -100,4 +100,4 @@ def test_real_chessboard_images():
             # Handedness of the canonical order: x along columns, y along rows, seen from the front.
             a, c = g[0, 1] - g[0, 0], g[1, 0] - g[0, 0]
             assert a[0] * c[1] - a[1] * c[0] > 0
-    assert found >= 8
+    assert found == 5
