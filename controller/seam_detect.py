@@ -368,6 +368,8 @@ def _order_pixels(xs: NDArray[Any], ys: NDArray[Any], w: NDArray[Any]) -> F64 | 
         tw = float(len(track))
         if tw > best_w:
             best_track, best_w = track, tw
+        if best_w >= 0.9 * len(keys):
+            break  # the whole blob is one curve: no need to start elsewhere
     chosen = best_track
     kb = sorted(chosen)
     if len(kb) < 8:
@@ -396,8 +398,12 @@ def _track_bins(keys: list[int], per_bin: dict[int, list[int]], co: F64, cw: F64
             if abs(b - hb[-1]) > 12:
                 break  # a long hole: the curve ends here
             if len(hb) >= 3:
-                slope, icpt = np.polyfit(hb[-8:], ho[-8:], 1)
-                pred = slope * b + icpt
+                # Least-squares line through the last 8 accepted points (plain floats: fast).
+                xs, ys = hb[-8:], ho[-8:]
+                mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
+                sxx = sum((x - mx) ** 2 for x in xs)
+                sxy = sum((x - mx) * (y - my) for x, y in zip(xs, ys, strict=True))
+                pred = my + (sxy / sxx if sxx > 0 else 0.0) * (b - mx)
             else:
                 pred = ho[-1]
             k = min(per_bin[b], key=lambda k: max(cmin[k] - pred, pred - cmax[k], 0.0))
