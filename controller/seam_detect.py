@@ -718,8 +718,20 @@ def _side_crossing(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> float
     half = 0.5 * (lvl_in + lvl_out)
     inside_side = np.sign(lvl_in - half) * (val - half) > 0
     n_in = int(np.sum(ks <= -14))
-    j = int(np.argmin(inside_side[n_in:])) + n_in
-    if inside_side[j] or j == 0 or (n_ok < len(ks) and j > n_ok):
+    lim = min(n_ok, len(ks))
+    # The last change from in to out (a dark scratch or texture stripe before the border is a
+    # dip, not the border).
+    last_in = np.flatnonzero(inside_side[n_in:lim])
+    if last_in.size == 0:
+        return None
+    j = int(last_in[-1]) + n_in + 1
+    if j >= lim or j == 0:
+        return None
+    # A sheet border is a sharp step (a few pixels of blur), not a gradual change of light.
+    a, b = max(j - 8, 0), min(j + 7, len(val) - 1)
+    amp = abs(lvl_in - half)
+    sgn = np.sign(lvl_in - half)
+    if sgn * (val[a] - half) < 0.25 * amp or sgn * (val[b] - half) > -0.25 * amp:
         return None
     v0, v1 = val[j - 1], val[j]
     frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
@@ -777,7 +789,10 @@ def _confidence(c: _Candidate, ratio: float) -> tuple[float, list[str]]:
     n_open = sum(k == "open" for k in c.end_kinds)
     reasons.append(f"ends at: {c.end_kinds[0]}, {c.end_kinds[1]}")
     if n_open:
-        conf *= 0.6
+        # A joint runs from border to border: an open end means part of it is not seen, or the
+        # line is a mark, not a joint. Never report that with high confidence.
+        conf = min(conf * 0.6, 0.45)
+        reasons.append("one end fades out inside a sheet: the seam may continue unseen")
     if ratio > 0:
         reasons.append(f"next candidate {100 * ratio:.0f} % as strong")
     else:
