@@ -59,6 +59,17 @@ class FaultyCamera:
         self.inner.close()
 
 
+def _disconnect(mock) -> None:
+    """Drop the link of ``mock``; a mock already replaced (stopped after a reconnect) is left."""
+    import contextlib
+
+    from controller.errors import ConfigError
+
+    # The daemon may have closed this mock's link meanwhile: nothing left to disconnect then.
+    with contextlib.suppress(ConfigError):
+        mock.disconnect(wait=False)
+
+
 def run_soak(folder: Path, cycles: int, seed: int, log=print, faults: list[str] | None = None
              ) -> dict:
     """Run the soak; ``faults`` fixes the fault of each cycle instead of drawing it."""
@@ -89,8 +100,7 @@ def run_soak(folder: Path, cycles: int, seed: int, log=print, faults: list[str] 
                     "controller_error_mid_weld" else None
                 mock.corrupt, mock.drop = (0.03, 0.02) if fault == "link_corruption" else (0, 0)
                 if fault == "link_disconnect":
-                    timer = threading.Timer(float(rng.uniform(0.2, 2.0)), mock.disconnect,
-                                            kwargs={"wait": False})
+                    timer = threading.Timer(float(rng.uniform(0.2, 2.0)), _disconnect, (mock,))
                     timer.start()
             r = send_request(sock, {"cmd": "start", "job": "demo"})
             if not r.get("ok"):
