@@ -35,7 +35,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -44,6 +44,7 @@ from calibration.handeye import (  # noqa: E402
     CLOSED_FORM_METHODS,
     Observation,
     opencv_calibrate_hand_eye,
+    pair_pose_streams,
     solve_hand_eye,
 )
 from calibration.intrinsics import solve_intrinsics  # noqa: E402
@@ -131,42 +132,19 @@ def sim_table(rows):
 
 # ---------------------------------------------------------------------------------------------
 def _load_stream(path):
+    """(t s, poses 4x4 mm) from an ETH CSV: t, x y z (m), qx qy qz qw."""
     a = np.loadtxt(path, delimiter=",")
-    return a[:, 0], a[:, 1:4] * 1000.0, Rotation.from_quat(a[:, 4:8])  # m -> mm, xyzw
+    R = Rotation.from_quat(a[:, 4:8]).as_matrix()  # scalar last, as the file
+    return a[:, 0], [make_pose(R[i], a[i, 1:4] * 1000.0) for i in range(len(a))]
 
 
-def _speed(sl, t, h):
-    return (sl(t + h) * sl(t - h).inv()).magnitude() / (2 * h)
-
-
-def ethz_pairs(n=40):
+def ethz_pairs(n=80):
     """(T_base_hand list, T_cam_target list, offset_s, correlation) from the ETH ASL streams."""
     d = DATA / "ethz-handeye-robot-arm"
-    tH, pH, RH = _load_stream(d / "robot_arm_complete_bag_color_and_ir_base_link_sr300_hinge.csv")
-    tE, pE, RE = _load_stream(d / "robot_arm_complete_bag_color_and_ir_target_ir.csv")
-    sH, sE = Slerp(tH, RH), Slerp(tE, RE)
-    grid = np.arange(max(tH[0], tE[0]) + 1.5, min(tH[-1], tE[-1]) - 1.5, 0.01)
-    ref = _speed(sH, grid, 0.2)
-    best = (-1.0, 0.0)
-    for off in np.arange(-1.0, 1.0, 0.001):
-        c = float(np.corrcoef(ref, _speed(sE, grid + off, 0.2))[0, 1])
-        if c > best[0]:
-            best = (c, float(off))
-    corr, off = best
-    cand = np.arange(5, len(tE) - 5)
-    cand = cand[(tE[cand] - off > tH[0] + 0.5) & (tE[cand] - off < tH[-1] - 0.5)]
-    bins = np.linspace(tE[cand[0]], tE[cand[-1]], n + 1)
-    A, B = [], []
-    for k in range(n):
-        inb = cand[(tE[cand] >= bins[k]) & (tE[cand] < bins[k + 1])]
-        if not len(inb):
-            continue
-        i = inb[np.argmin(_speed(sE, tE[inb], 0.1))]  # the stillest sample of the bin
-        t = tE[i] - off
-        A.append(make_pose(sH([t]).as_matrix()[0], [np.interp(t, tH, pH[:, j]) for j in range(3)]))
-        # The target stream is T_W_E (upstream naming): invert to get T_cam_target.
-        B.append(invert(make_pose(RE[i].as_matrix(), pE[i])))
-    return A, B, off, corr
+    tH, TH = _load_stream(d / "robot_arm_complete_bag_color_and_ir_base_link_sr300_hinge.csv")
+    tE, TE = _load_stream(d / "robot_arm_complete_bag_color_and_ir_target_ir.csv")
+    # The target stream is T_W_E (upstream naming): invert to get T_cam_target.
+    return pair_pose_streams(tH, TH, tE, [invert(T) for T in TE], n)
 
 
 def run_ethz():
@@ -193,6 +171,18 @@ def run_ethz():
         out["methods"][m] = {"translation_mm": X[:3, 3].round(2).tolist(),
                              "holdout_median_mm_deg": holdout(X, Y)}
     r = solve_hand_eye(At, Bt, None, max_rms_px=1e9, reject_min_px=5.0)
+    # Stability: the hand-eye from different sample sets (40, 60, 80 of the stillest moments).
+    spread = {}
+    sols: dict[str, list] = {m: [] for m in [*CLOSED_FORM_METHODS, "ours (pose refinement)"]}
+    for n in (40, 60, 80):
+        An, Bn, _, _ = ethz_pairs(n)
+        for m in CLOSED_FORM_METHODS:
+            sols[m].append(opencv_calibrate_hand_eye(An, Bn, m))
+        sols["ours (pose refinement)"].append(
+            solve_hand_eye(An, Bn, None, max_rms_px=1e9, reject_min_px=5.0).X)
+    for m, Xs in sols.items():
+        spread[m] = max(pose_error(a, b)[0] for a in Xs for b in Xs)
+    out["stability_max_mm_between_sample_sets"] = spread
     out["methods"]["ours (pose refinement)"] = {
         "translation_mm": r.X[:3, 3].round(2).tolist(), "holdout_median_mm_deg": holdout(r.X, r.Y),
         "consistency_mm": r.consistency_mm, "consistency_deg": r.consistency_deg,
@@ -282,11 +272,13 @@ def main():
         print(f"\n## ETH ASL robot arm + SR300 (real poses)\n\n{e['samples']} samples, time "
               f"offset {e['time_offset_s']:.3f} s (angular-speed correlation "
               f"{e['speed_correlation']:.3f}); fitted on even samples, checked on odd ones.\n")
-        print("| method | translation mm | hold-out median mm | hold-out median deg |")
-        print("|---|---|---|---|")
+        print("| method | translation mm | hold-out median mm | hold-out median deg | "
+              "spread over 40/60/80 samples, mm |")
+        print("|---|---|---|---|---|")
         for m, v in e["methods"].items():
             h = v["holdout_median_mm_deg"]
-            print(f"| {m} | {v['translation_mm']} | {h[0]:.2f} | {h[1]:.3f} |")
+            sp = e["stability_max_mm_between_sample_sets"][m]
+            print(f"| {m} | {v['translation_mm']} | {h[0]:.2f} | {h[1]:.3f} | {sp:.1f} |")
     if (DATA / "opencv-chessboard").exists():
         c = run_opencv_chessboard()
         result["opencv_chessboard"] = c
