@@ -172,7 +172,7 @@ def test_teach_cli_mock_robot_auto(tmp_path, capsys):
     assert np.allclose(j0, [2.9564, 34.4874, 45.5124, 0.7370, 56.4743, 2.4848], atol=1e-3)
     out = tmp_path / "c.yaml"
     rc = main(["calibrate", "--port", "mock://", "--camera", "simboard:?width=640",
-               "--board", SPEC, "--output", str(out), "--auto", "10",
+               "--board", SPEC, "--output", str(out), "--auto", "6",
                "--first-joints", ",".join(f"{v:.4f}" for v in j0),
                "--save-views", str(tmp_path / "views")])
     captured = capsys.readouterr()

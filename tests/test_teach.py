@@ -207,3 +207,14 @@ def test_eye_to_hand_folder_writes_camera_pose(tmp_path):
 
     doc = json.loads(export_hand_eye(calib, "view_camera_pose"))
     assert pose_error(pose_from_dict(doc["camera_pose"]), calib.T_base_cam)[0] < 1e-5
+
+
+def test_charuco_folder(tmp_path):
+    board = parse_board_spec("charuco:8x6:22:16:DICT_5X5_100")
+    s = simulate_session(CAM, board, n_views=8, seed=5, n_out_of_frame=1)
+    write_view_folder(s, tmp_path)
+    calib, report = calibrate_from_folder(tmp_path, board, holdout_every=0)
+    # The partial ChArUco view is detected (partial boards are fine data) and kept.
+    partial = [v.name for v in s.views if v.kind == "out_of_frame"]
+    assert report["views_without_board"] == [] and partial[0] in report["hand_eye"]["views_used"]
+    assert pose_error(calib.T_flange_cam, s.T_flange_cam)[0] < 0.6
