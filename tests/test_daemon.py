@@ -136,22 +136,28 @@ def _wait_for(predicate, timeout_s, what):
     raise AssertionError(f"timed out waiting for {what}: {last}")
 
 
-def test_sigkill_mid_cycle_then_restart(tmp_path):
+def _signal_mid_weld(tmp_path, sig, exit_code):
+    """Start a daemon process, start a cycle, send ``sig`` once the weld runs; returns paths."""
     cfg_path = make_cell(tmp_path / "cell", time_scale=0.05)
-    cfg = load_cell_config(cfg_path)
-    sock = cfg.control.socket
-    p = _spawn(cfg_path, tmp_path / "stderr1.log")
+    sock = load_cell_config(cfg_path).control.socket
+    p = _spawn(cfg_path, tmp_path / f"stderr-{sig}.log")
     try:
         _wait_for(lambda: send_request(sock, {"cmd": "status"})["ok"], 60, "daemon start")
         send_request(sock, {"cmd": "start", "job": "demo"})
         _wait_for(lambda: send_request(sock, {"cmd": "status"})["state"] == "welding", 120,
                   "the weld to start")
-        p.send_signal(signal.SIGKILL)
-        p.wait(10)
+        p.send_signal(sig)
+        code = p.wait(60)
+        if exit_code is not None:
+            assert code == exit_code
     finally:
         if p.poll() is None:
             p.kill()
-    rec = next((cfg_path.parent / "records").iterdir())
+    return cfg_path, sock, next((cfg_path.parent / "records").iterdir())
+
+
+def test_sigkill_mid_cycle_then_restart(tmp_path):
+    cfg_path, sock, rec = _signal_mid_weld(tmp_path, signal.SIGKILL, None)
     assert read_record(rec)["status"] == "incomplete"
     p2 = _spawn(cfg_path, tmp_path / "stderr2.log")
     try:
@@ -177,21 +183,7 @@ def test_sigkill_mid_cycle_then_restart(tmp_path):
 
 
 def test_sigterm_mid_weld_aborts_with_the_arc_off_and_exits(tmp_path):
-    cfg_path = make_cell(tmp_path / "cell", time_scale=0.05)
-    cfg = load_cell_config(cfg_path)
-    sock = cfg.control.socket
-    p = _spawn(cfg_path, tmp_path / "stderr.log")
-    try:
-        _wait_for(lambda: send_request(sock, {"cmd": "status"})["ok"], 60, "daemon start")
-        send_request(sock, {"cmd": "start", "job": "demo"})
-        _wait_for(lambda: send_request(sock, {"cmd": "status"})["state"] == "welding", 120,
-                  "the weld to start")
-        p.send_signal(signal.SIGTERM)
-        assert p.wait(60) == 0
-    finally:
-        if p.poll() is None:
-            p.kill()
-    rec = next((cfg_path.parent / "records").iterdir())
+    cfg_path, sock, rec = _signal_mid_weld(tmp_path, signal.SIGTERM, 0)
     doc = read_record(rec)
     assert doc["status"] == "aborted" and "SIGTERM" in doc["reason"]
     assert not Path(sock).exists()
