@@ -13,8 +13,10 @@
 - ``files:/path/*.png`` cycles through the sorted files matching the pattern.
 - ``opencv:0`` a real camera through ``cv2.VideoCapture`` (index or device path or stream URL).
 
-An unknown scheme or option is a :class:`ConfigError` listing the known ones; a camera that cannot
-be opened or does not deliver a frame raises :class:`CameraError`.
+Constructing a camera only checks its URL (an unknown scheme or option is a :class:`ConfigError`
+listing the known ones); ``open()`` acquires the device or files, as pyserial's ``Serial`` does
+with ``do_not_open``. ``open_camera`` does both. A camera that cannot be opened or does not
+deliver a frame raises :class:`CameraError`.
 
 What the simulated camera does not model: exposure control, frame timing, dropped frames.
 """
@@ -37,9 +39,13 @@ from controller.errors import CameraError, ConfigError
 
 
 class Camera:
-    """One camera: ``grab()`` a frame, ``close()`` it; usable as a context manager."""
+    """One camera: ``open()`` it, ``grab()`` frames, ``close()`` it; a context manager."""
 
     url: str = ""
+
+    def open(self) -> Camera:
+        """Acquire the device (or files); returns self. Raises :class:`CameraError`."""
+        return self
 
     def grab(self) -> NDArray[np.uint8]:
         """One frame, uint8 greyscale (H, W) or BGR (H, W, 3); raises :class:`CameraError`."""
@@ -126,17 +132,25 @@ class FilesCamera(Camera):
         pattern, opts = _split(url, "files")
         if opts:
             raise ConfigError(f"camera {url}: files: takes no options, got {sorted(opts)}")
-        self.files = sorted(glob.glob(pattern))
+        self._pattern = pattern
+        self.files: list[str] = []
+        self._i = 0
+        self._closed = True
+
+    def open(self) -> FilesCamera:
+        """List the matching files; raises :class:`CameraError` when none match."""
+        self.files = sorted(glob.glob(self._pattern))
         if not self.files:
-            raise CameraError(f"camera {url}: no file matches {pattern!r}; check the folder and "
-                              "the pattern (e.g. files:/data/views/*.png)")
+            raise CameraError(f"camera {self.url}: no file matches {self._pattern!r}; check the "
+                              "folder and the pattern (e.g. files:/data/views/*.png)")
         self._i = 0
         self._closed = False
+        return self
 
     def grab(self) -> NDArray[np.uint8]:
         """The next file's image (after the last, the first again)."""
         if self._closed:
-            raise CameraError(f"camera {self.url}: grab after close")
+            raise CameraError(f"camera {self.url}: not open (open() it, or use open_camera)")
         path = self.files[self._i % len(self.files)]
         self._i += 1
         img = cv2.imread(path, cv2.IMREAD_UNCHANGED) if Path(path).is_file() else None
@@ -162,12 +176,18 @@ class OpenCVCamera(Camera):
         target, opts = _split(url, "opencv")
         if opts:
             raise ConfigError(f"camera {url}: opencv: takes no options, got {sorted(opts)}")
-        source: int | str = int(target) if target.isdigit() else target
-        self._cap = cv2.VideoCapture(source)
-        if not self._cap.isOpened():
-            self._cap.release()
-            raise CameraError(f"camera {url}: cannot open {source!r}; check that the camera is "
-                              "connected and not used by another program")
+        self._source: int | str = int(target) if target.isdigit() else target
+        self._cap: cv2.VideoCapture | None = None
+
+    def open(self) -> OpenCVCamera:
+        """Open the capture device; raises :class:`CameraError` when it cannot be opened."""
+        cap = cv2.VideoCapture(self._source)
+        if not cap.isOpened():
+            cap.release()
+            raise CameraError(f"camera {self.url}: cannot open {self._source!r}; check that the "
+                              "camera is connected and not used by another program")
+        self._cap = cap
+        return self
 
     def grab(self) -> NDArray[np.uint8]:
         """Read one frame; raises :class:`CameraError` when the camera delivers none."""
@@ -180,6 +200,7 @@ class OpenCVCamera(Camera):
         """Release the capture device."""
         if self._cap is not None:
             self._cap.release()
+            self._cap = None
 
 
 #: The explicit registry: URL scheme -> "module:class", imported when used.
@@ -191,7 +212,7 @@ CAMERA_SCHEMES: dict[str, str] = {
 
 
 def open_camera(url: str, **kwargs: Any) -> Camera:
-    """Open the camera named by ``url`` (``sim:...``, ``files:...``, ``opencv:...``).
+    """Construct and open the camera named by ``url`` (``sim:...``, ``files:...``, ``opencv:...``).
 
     Keyword arguments go to the camera class (only ``sim:`` takes any). Raises
     :class:`ConfigError` for an unknown scheme (listing the known ones) or option, and
@@ -206,4 +227,5 @@ def open_camera(url: str, **kwargs: Any) -> Camera:
     if kwargs and scheme != "sim":
         raise ConfigError(f"camera URL {url!r}: {scheme}: takes no keyword arguments, got "
                           f"{sorted(kwargs)}")
-    return factory(url, **kwargs)  # type: ignore[no-any-return]
+    camera: Camera = factory(url, **kwargs)
+    return camera.open()

@@ -103,3 +103,18 @@ def test_sim_camera_bad_pose_source_is_a_camera_error():
 def test_opencv_camera_that_does_not_exist(tmp_path):
     with pytest.raises(CameraError, match="cannot open"):
         open_camera(f"opencv:{tmp_path}/no_such_video_device")
+
+
+def test_constructing_a_camera_opens_nothing(image_dir, tmp_path):
+    from drivers.cameras import FilesCamera, OpenCVCamera
+
+    cam = OpenCVCamera(f"opencv:{tmp_path}/no_such_video_device")  # no device touched yet
+    with pytest.raises(CameraError, match="no frame"):
+        cam.grab()
+    with pytest.raises(CameraError, match="cannot open"):
+        cam.open()
+    files = FilesCamera(f"files:{image_dir}/*.png")
+    with pytest.raises(CameraError, match="not open"):
+        files.grab()
+    with files.open() as opened:
+        assert opened.grab().shape == (80, 100)
