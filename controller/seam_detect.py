@@ -48,6 +48,7 @@ from controller.errors import AmbiguousSeam, InputError, SeamNotFound
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
+_MIN_STEP = 0.25  # relative brightness step that marks a sheet border
 
 
 @dataclass(frozen=True)
@@ -562,7 +563,16 @@ def _fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectPara
 def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -> None:
     pts, nrm = _resample(c.polyline, p.step_px, extend=24.0)
     fit = _fit_at(grey, lut, pts, nrm, p)
+    # The coarse search loses a faint stretch of the gap (thin, blurred, low contrast); the
+    # profiles still see it, so follow it on at full resolution until they stop fitting.
+    fit = _track_on(grey, lut, fit, p, at_end=True)
+    fit = _track_on(grey, lut, fit, p, at_end=False)
     valid = fit["valid"]
+    if valid.sum() >= 8:
+        # Where a mark crosses the seam at a shallow angle the two valleys merge into one wide
+        # one whose centre is pulled toward the mark: not a measurement of the gap.
+        w_typ = float(np.median(fit["width"][valid]))
+        valid = valid & (fit["width"] < 1.6 * w_typ + 1.0)
     # Longest run of valid profiles, bridging short interruptions; short islands at its ends are
     # dropped (a lone fit on the sheet border beyond the seam's end is not the seam).
     bridge = int(round(p.bridge_px / p.step_px))
@@ -656,6 +666,40 @@ def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -
     c.score = length * c.depth * c.valid_frac
 
 
+def _track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectParams,
+              at_end: bool, chunk: int = 8, max_px: float = 4000.0) -> dict[str, Any]:
+    """Extend ``fit`` (from :func:`_fit_at`) past one end while the gap profiles keep fitting.
+
+    From the last good centres a quadratic over the sample index predicts the next ``chunk``
+    profile positions; they are fitted together and appended. It goes on while most of the last
+    ``chunk`` samples are good, so a seam that reaches a sheet or image border (profiles fail
+    there) stops at once.
+    """
+    keys = ("valid", "centre", "depth", "width", "rms", "contrast")
+    if not at_end:
+        fit = {k: fit[k][::-1] for k in keys}
+    n_steps = 0
+    while n_steps * p.step_px < max_px:
+        valid = fit["valid"]
+        if len(valid) < 12 or int(valid[-chunk:].sum()) < (chunk * 5 + 7) // 8:
+            break
+        idx = np.flatnonzero(valid[-16:]) + len(valid) - min(16, len(valid))
+        t = idx.astype(np.float64) - (len(valid) - 1)
+        cen = fit["centre"][idx]
+        coef = np.polyfit(t, cen, 2)
+        tq = np.arange(1.0, chunk + 1.0)
+        pts = np.column_stack([np.polyval(coef[:, k], tq) for k in range(2)])
+        der = np.column_stack([np.polyval(np.polyder(coef[:, k]), tq) for k in range(2)])
+        der /= np.linalg.norm(der, axis=1, keepdims=True) + 1e-12
+        nrm = np.column_stack([-der[:, 1], der[:, 0]])
+        new = _fit_at(grey, lut, pts, nrm, p)
+        fit = {k: np.concatenate([fit[k], new[k]]) for k in keys}
+        n_steps += chunk
+    if not at_end:
+        fit = {k: fit[k][::-1] for k in keys}
+    return fit
+
+
 def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
                 w_med: float) -> tuple[float, str]:
     """Distance (px, along ``tang``) from ``e_pt`` to the seam's end, and what ends it there.
@@ -663,36 +707,27 @@ def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     The kind is ``"sheet border"``, ``"image border"`` or ``"open"`` (the gap fades out inside a
     sheet: a pen mark or scratch does that, a joint does not).
 
-    The end is where the sheets end. Each side of the gap is read on a line parallel to the
-    centreline just outside the gap; where a sheet border crosses that line the side's brightness
-    changes. A border crossing the seam at an angle reaches one side's line before the end and
-    the other's after it by the same distance, so the mean of the two crossings is the end. When
-    neither side changes, the seam runs out of the image (the end is the image border) or ends
-    where the profiles stopped fitting.
+    The end is where the sheets end. Each side of the gap is read on two lines parallel to the
+    centreline just outside the gap, and the gap itself on the centreline; where a sheet border
+    crosses a line the brightness steps (where the gap ends, its dark floor gives way to the
+    table). The border is straight across the seam, so its crossings of the lines lie on one line
+    in (offset across, distance along): :func:`_border_line` finds the steps that agree and
+    follows that line in to the centreline (a step that agrees with no other, such as the edge
+    of a table hole beyond the border, is not the end). When no line steps, the seam runs out of
+    the image (the end is the image border) or ends where the profiles stopped fitting.
     """
     H, W = grey.shape
     nrm = np.array([-tang[1], tang[0]])
     ks = np.arange(-28.0, 20.01, 0.5)
     q = e_pt + np.outer(ks, tang)
     delta = w_med / 2 + 2.5
-    crossings: list[float] = []
-    extrapolated: list[float] = []
-    for sign in (-1.0, 1.0):
-        k1 = _side_crossing(grey, lut, q + sign * delta * nrm, ks)
-        if k1 is None:
-            continue
-        crossings.append(k1)
-        k2 = _side_crossing(grey, lut, q + sign * 2 * delta * nrm, ks)
-        if k2 is not None and abs(k2 - k1) < 2 * delta:
-            extrapolated.append(2 * k1 - k2)  # the border line followed in to the centreline
+    offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
+    steps = [_side_crossings(grey, lut, q + o * nrm, ks) for o in offs]
+    k_line = _border_line(offs, steps)
     k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
     kind = "sheet border"
-    if len(crossings) == 2:
-        k = 0.5 * (crossings[0] + crossings[1])
-    elif extrapolated:
-        k = extrapolated[0]
-    elif crossings:
-        k = crossings[0]
+    if k_line is not None:
+        k = k_line
     elif k_border < 40.0:
         # Profiles fail within a profile length of the image border: the seam runs out there.
         k, kind = k_border, "image border"
@@ -703,39 +738,96 @@ def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     return float(k), kind
 
 
-def _side_crossing(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> float | None:
-    """Where the brightness along the line ``ps`` (at offsets ``ks``) changes from in to out."""
+def _border_line(offs: tuple[float, ...], steps: list[list[float]]) -> float | None:
+    """Distance along the seam at which a straight border through the steps meets the centreline.
+
+    ``steps[i]`` are the step positions found on the line at offset ``offs[i]`` across the seam,
+    inner first; the first one on each line is where that line leaves its sheet, unless the
+    sheet and the table look alike there (then it is something beyond, such as a table hole).
+    Every pair of first steps defines a border line (crossing the seam at 15 degrees or more);
+    the one most lines agree with (within 1.5 px) wins, the inner one on a tie, and is fitted
+    to them. A lone step, seen on one line only, is taken only from the centreline (offset 0).
+    """
+    firsts = [(o, s[0]) for o, s in zip(offs, steps, strict=True) if s]
+    best: tuple[int, float] | None = None  # (-agreeing lines, k at the centreline)
+    for i in range(len(firsts)):
+        for j in range(i + 1, len(firsts)):
+            (oa, ka), (ob, kb) = firsts[i], firsts[j]
+            s = (kb - ka) / (ob - oa)
+            if abs(s) > 3.7:
+                continue
+            sel = [(o, k) for o, k in firsts if abs(k - ka - s * (o - oa)) <= 1.5]
+            o_arr, k_arr = np.array(sel).T
+            k0 = float(np.polyfit(o_arr, k_arr, 1)[1])
+            if best is None or (-len(sel), k0) < best:
+                best = (-len(sel), k0)
+    if best is not None:
+        return best[1]
+    # A lone step counts only where the gap's own dark floor ends (a lone step beside the gap
+    # may be a texture stripe or a dot).
+    near = [k for o, k in firsts if o == 0]
+    return near[0] if near else None
+
+
+def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> list[float]:
+    """Where the brightness along the line ``ps`` (at offsets ``ks``) steps sharply and lastingly.
+
+    From well inside the sheet (``ks > -14``) outward: a step is where the median brightness
+    over the next 6 px differs from the median over the last 6 px by at least 25 %. A dark
+    scratch or a texture stripe is a dip too narrow to move a median, and a gradual change of
+    light moves it too slowly. Each step is placed where the brightness passes half-way between
+    the two levels, and must be sharp (a few pixels of blur). All steps are returned, inner
+    first: which one is the sheet border is decided across lines (:func:`_border_line`).
+    """
     val, inside = _bilinear(grey, lut, ps[:, 0], ps[:, 1])
     val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
     # Only samples inside the image count (outside, the border pixels are repeated).
-    if np.sum(inside & (ks <= -14)) < 4 or np.sum(inside & (ks >= 12)) < 4:
-        return None
-    n_ok = int(np.argmin(inside)) if not inside.all() else len(ks)
-    lvl_in = float(np.median(val[inside & (ks <= -14)]))
-    lvl_out = float(np.median(val[inside & (ks >= 12)]))
-    if abs(lvl_in - lvl_out) < 0.25 * max(lvl_in, 1e-6):
-        return None
-    half = 0.5 * (lvl_in + lvl_out)
-    inside_side = np.sign(lvl_in - half) * (val - half) > 0
+    lim = int(np.argmin(inside)) if not inside.all() else len(ks)
     n_in = int(np.sum(ks <= -14))
-    lim = min(n_ok, len(ks))
-    # The last change from in to out (a dark scratch or texture stripe before the border is a
-    # dip, not the border).
-    last_in = np.flatnonzero(inside_side[n_in:lim])
-    if last_in.size == 0:
-        return None
-    j = int(last_in[-1]) + n_in + 1
-    if j >= lim or j == 0:
-        return None
-    # A sheet border is a sharp step (a few pixels of blur), not a gradual change of light.
-    a, b = max(j - 8, 0), min(j + 7, len(val) - 1)
-    amp = abs(lvl_in - half)
-    sgn = np.sign(lvl_in - half)
-    if sgn * (val[a] - half) < 0.25 * amp or sgn * (val[b] - half) > -0.25 * amp:
-        return None
-    v0, v1 = val[j - 1], val[j]
-    frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
-    return float(ks[j - 1] + frac * (ks[j] - ks[j - 1]))
+    hold = 12  # samples (6 px) on each side of a step
+    if n_in < hold or lim - n_in < hold + 2:
+        return []
+    win = np.lib.stride_tricks.sliding_window_view(val[:lim], hold)
+    med = np.median(win, axis=1)  # med[i]: median of val[i:i + hold]
+    js = np.arange(n_in, lim - hold + 1)
+    behind, ahead = med[js - hold], med[js]
+    step = np.abs(ahead - behind)
+    big = np.concatenate([[0], (step > _MIN_STEP * np.maximum(np.maximum(behind, ahead), 1e-6))
+                          .astype(np.int8), [0]])
+    out: list[float] = []
+    for g0, g1 in zip(np.flatnonzero(np.diff(big) == 1), np.flatnonzero(np.diff(big) == -1),
+                      strict=True):
+        jj = int(g0) + int(np.argmax(step[g0:g1]))
+        j = int(js[jj])
+        lvl_in, lvl_out = float(behind[jj]), float(ahead[jj])
+        half = 0.5 * (lvl_in + lvl_out)
+        sgn = np.sign(lvl_in - half)
+        on_in = sgn * (val - half) > 0
+        # The half-level crossing nearest j: back to the last sample on the inner side, or on
+        # to the first one past it.
+        k = j
+        if on_in[k]:
+            while k + 1 < lim and on_in[k + 1]:
+                k += 1
+        else:
+            while k > 0 and not on_in[k]:
+                k -= 1
+            if not on_in[k]:
+                continue
+        if k + 1 >= lim:
+            continue
+        amp = abs(lvl_in - half)
+        lo_i, hi_i = max(k - 7, 0), min(k + 8, lim - 1)
+        if sgn * (val[lo_i] - half) < 0.25 * amp or sgn * (val[hi_i] - half) > -0.25 * amp:
+            continue
+        # Off the sheet for good: the brightness never comes back past half-way (a dot or a
+        # glare band on the sheet is left again; the table beyond a border is not).
+        if np.any(sgn * (val[k + 2:lim] - half) > 0.2 * amp):
+            continue
+        v0, v1 = val[k], val[k + 1]
+        frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
+        out.append(float(ks[k] + frac * (ks[k + 1] - ks[k])))
+    return out
 
 
 def _border_crossing(e_pt: F64, tang: F64, W: int, H: int, default: float) -> float:
