@@ -63,7 +63,8 @@ class DetectParams:
     ``step_px``: spacing of the refinement profiles along the seam; ``half_width_px``: half
     length of each profile. ``max_gap_px``: widest gap accepted. ``ambiguity_ratio``: a second
     candidate at least this strong relative to the best makes the result ambiguous.
-    ``min_confidence``: below this the detection is refused (:class:`SeamNotFound`).
+    ``min_confidence``: below this the detection is refused (:class:`SeamNotFound`); an open end
+    caps the confidence at 0.45, so a seam not seen to a border is refused by default.
     """
 
     gamma: float = 2.2
@@ -80,7 +81,7 @@ class DetectParams:
     bridge_px: float = 200.0
     join_px: float = 200.0
     ambiguity_ratio: float = 0.6
-    min_confidence: float = 0.3
+    min_confidence: float = 0.5
     max_candidates: int = 4
 
 
