@@ -18,13 +18,14 @@ def seam_plot_png(seam_mm: NDArray[np.float64], path_mm: NDArray[np.float64] | N
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     fig = plt.figure(figsize=(9, 4.5), dpi=100)
     ax = fig.add_subplot(1, 2 if error_mm is not None else 1, 1, projection="3d")
     s = np.asarray(seam_mm)
     if error_mm is not None:
         sc = ax.scatter(s[:, 0], s[:, 1], s[:, 2], c=error_mm, cmap="viridis", s=8)
-        fig.colorbar(sc, ax=ax, shrink=0.6, label="error to truth (mm)")
+        fig.colorbar(sc, ax=ax, shrink=0.6, pad=0.2, label="error to truth (mm)")
     else:
         ax.plot(s[:, 0], s[:, 1], s[:, 2], "b.-", ms=3, lw=1, label="seam")
     if path_mm is not None:
@@ -39,6 +40,7 @@ def seam_plot_png(seam_mm: NDArray[np.float64], path_mm: NDArray[np.float64] | N
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
     ax.set_zlabel("z (mm)")
+    ax.zaxis.set_major_locator(MaxNLocator(3))  # the z span is short: few ticks, no overlap
     if path_mm is not None or error_mm is None:
         ax.legend(loc="upper left", fontsize=8)
     if error_mm is not None:
