@@ -107,6 +107,11 @@ def run_sim(seeds, n_views, width):
             res["ours"] = [d_mm, d_deg, 100 * (he.camera.fx / cam.fx - 1)]
             res["ours_rejected"] = [(r["view"], kinds[r["view"]]) for r in he.rejected_views]
             res["ours_residual_px"] = he.residual_px
+            assert he.std_mm is not None and he.std_deg is not None
+            res["ours_std_mm_cam_xyz"] = he.std_mm.round(4).tolist()
+            res["ours_std_deg_cam_xyz"] = he.std_deg.round(5).tolist()
+            res["ours_error_mm_cam_xyz"] = (invert(s.T_flange_cam)[:3, :3] @ (
+                he.T_flange_cam[:3, 3] - s.T_flange_cam[:3, 3])).round(4).tolist()
             res["ours_consistency"] = [he.consistency_mm, he.consistency_deg]
             rows.append(res)
             print(json.dumps(res), file=sys.stderr)

@@ -101,6 +101,11 @@ class HandEyeResult:
     method: str = "park"
     refined_intrinsics: bool = False
     per_view_pose_correction: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: One standard deviation of X's translation (mm) and rotation (deg) along the camera's x, y, z
+    #: axes, from the joint refinement's Jacobian with the stated noise (corner noise from the
+    #: residuals, the robot's pose noise); None without corners or refinement.
+    std_mm: F64 | None = None
+    std_deg: F64 | None = None
 
     @property
     def X(self) -> Pose:
@@ -135,6 +140,9 @@ class HandEyeResult:
                 k: [round(v[0], 4), round(v[1], 5)]
                 for k, v in self.per_view_pose_correction.items()},
         }
+        if self.std_mm is not None and self.std_deg is not None:
+            out["hand_eye_std_mm_cam_xyz"] = [round(float(v), 4) for v in self.std_mm]
+            out["hand_eye_std_deg_cam_xyz"] = [round(float(v), 5) for v in self.std_deg]
         if self.eye_to_hand:
             out["T_base_cam"] = pose_to_dict(self.X)
             out["T_flange_board"] = pose_to_dict(self.Y)
@@ -549,6 +557,9 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
                 f"the image", rejected_views=rejected)
         check_motions([A[i] for i in used], [nm[i] for i in used], min_views=min_views,
                       min_rotation_deg=min_rotation_deg)
+    std_mm = std_deg = None
+    if refine:
+        std_mm, std_deg = _hand_eye_std(prob, p, X)
     cam_out = _camera_from(camera, intr) if refine_intrinsics and refine else camera
     # Residuals with the recorded (uncorrected) poses, every view.
     full = _Problem(A, obs, X, Y, intr, False, eye_to_hand, sigma_px, robot_sigma_mm, sigma_rad)
@@ -576,7 +587,24 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
         T_flange_board=Y if eye_to_hand else None, closed_form=closed, method=method,
         refined_intrinsics=bool(refine_intrinsics and refine),
         per_view_pose_correction={nm[i]: (float(corr_mm[i]), float(corr_deg[i]))
-                                  for i in used})
+                                  for i in used}, std_mm=std_mm, std_deg=std_deg)
+
+
+def _hand_eye_std(prob: _Problem, p: F64, X: Pose) -> tuple[F64, F64]:
+    """One sigma of X (translation mm, rotation deg) along the camera axes from the Jacobian.
+
+    The covariance is ``(J^T J)^-1`` of the whitened residuals (a Cramer-Rao-like bound: what
+    the corner noise and the robot's pose noise leave of the hand-eye with these views). The
+    corner sigma of the problem is a 2D RMS; per image axis it is that over sqrt(2).
+    """
+    J = prob.jac(p)
+    J[: 2 * len(prob.view)] *= np.sqrt(2.0)
+    cov = np.linalg.pinv(J.T @ J)
+    R = X[:3, :3]
+    ct = R.T @ cov[3:6, 3:6] @ R  # translation is added in the flange frame
+    std_mm = np.sqrt(np.clip(np.diag(ct), 0.0, None))
+    std_deg = np.degrees(np.sqrt(np.clip(np.diag(cov[0:3, 0:3]), 0.0, None)))  # right-applied
+    return std_mm, std_deg
 
 
 def _solve_pose_only(A: list[F64], T_cb: list[F64], nm: list[str], *, eye_to_hand: bool,

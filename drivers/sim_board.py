@@ -297,8 +297,13 @@ def perturb(T: Pose, rng: np.random.Generator, sigma_mm: float, sigma_deg: float
 
 
 def _view_poses(rng: np.random.Generator, n: int, centre: F64, camera: CameraModel,
-                board: BoardSpec) -> list[tuple[F64, F64, float]]:
-    """Make n (eye, target, roll) triples spread over azimuth, tilt, distance and image position."""
+                board: BoardSpec, start: int = 0) -> list[tuple[F64, F64, float]]:
+    """Make n (eye, target, roll) triples spread over azimuth, tilt, distance and image position.
+
+    The azimuth of triple i steps by the golden angle from ``start + i``: a caller that asks for
+    one triple at a time passes a running count as ``start``, or every view would come from the
+    same side of the board (rotations about one axis only, the hand-eye depth poorly observed).
+    """
     w, h = board.size_mm
     fov = 2 * np.arctan(0.5 * camera.width / camera.fx)
     # Distance at which the board fills FILL of the image width.
@@ -306,7 +311,7 @@ def _view_poses(rng: np.random.Generator, n: int, centre: F64, camera: CameraMod
     out = []
     golden = np.pi * (3 - np.sqrt(5))
     for i in range(n):
-        az = i * golden + rng.uniform(-0.2, 0.2)
+        az = (start + i) * golden + rng.uniform(-0.2, 0.2)
         tilt = np.radians(rng.uniform(*VIEW_TILT_DEG))
         dist = base_dist * rng.uniform(0.8, 1.2)
         eye = centre + dist * np.array([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az),
@@ -377,7 +382,7 @@ def simulate_session(camera: CameraModel, board: BoardSpec, *, n_views: int = 20
             assert T_base_cam is not None and T_flange_board is not None
             T_base_flange = compose(T_base_cam, T_cam_board, invert(T_flange_board))
         else:
-            eye, target, roll = _view_poses(rng, 1, centre, camera, board)[0]
+            eye, target, roll = _view_poses(rng, 1, centre, camera, board, attempts)[0]
             if kind == "out_of_frame":
                 w, h = board.size_mm
                 target = centre + np.array([0.6 * w, 0.1 * h, 0.0]) * rng.choice([-1, 1])

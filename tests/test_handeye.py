@@ -24,8 +24,11 @@ Y_TRUE = default_board_pose(BOARD)
 
 
 def session(n=14, seed=0, noise_px=0.05, sigma_mm=0.05, sigma_deg=0.01, eye_to_hand=False,
-            bad=()):
-    """Corner observations without rendering: true projections plus noise."""
+            bad=(), az_step=2.4):
+    """Corner observations without rendering: true projections plus noise.
+
+    Eye-in-hand views step around the board by ``az_step`` rad of azimuth (0: all from one side).
+    """
     rng = np.random.default_rng(seed)
     obj = BOARD.object_points()
     centre = Y_TRUE[:3, :3] @ obj.mean(axis=0) + Y_TRUE[:3, 3]
@@ -45,7 +48,7 @@ def session(n=14, seed=0, noise_px=0.05, sigma_mm=0.05, sigma_deg=0.01, eye_to_h
                                           rng.uniform(280, 360)]) - R @ c)
             T_bf = T_base_cam_fixed @ T_cb @ invert(Y_e2h)
         else:
-            az, tilt = 2.4 * i, np.radians(rng.uniform(20, 45))
+            az, tilt = az_step * i + rng.uniform(-0.2, 0.2), np.radians(rng.uniform(20, 45))
             eye = centre + rng.uniform(280, 360) * np.array(
                 [np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), np.cos(tilt)])
             target = centre + np.array([rng.uniform(-40, 40), rng.uniform(-30, 30), 0])
@@ -96,6 +99,23 @@ def test_joint_refinement_accuracy_and_report():
     # A view's residual under the solution (as held-out validation uses it).
     res = view_residuals(r, A[0], obs[0])
     assert res.shape == (54, 2) and np.sqrt(np.mean(res ** 2)) < 1.0
+
+
+def test_hand_eye_uncertainty_from_the_refinement():
+    # One sigma of the hand-eye along the camera axes, from the refinement's Jacobian: reported,
+    # consistent with the actual error, and larger along the optical axis when every view looks
+    # at the board from the same side (the weakness the bench sessions had before their views
+    # were spread around the board).
+    A, obs, (X, _) = session(n=16, seed=3, noise_px=0.1)
+    r = solve_hand_eye(A, obs, CAM, refine_intrinsics=True)
+    assert r.std_mm is not None and r.std_deg is not None
+    assert np.all(r.std_mm > 0.005) and np.all(r.std_mm < 0.2) and np.all(r.std_deg < 0.05)
+    err_cam = X[:3, :3].T @ (r.T_flange_cam[:3, 3] - X[:3, 3])
+    assert np.all(np.abs(err_cam) < 4 * r.std_mm + 1e-3)
+    assert r.report()["hand_eye_std_mm_cam_xyz"] == [round(float(v), 4) for v in r.std_mm]
+    A1, obs1, _ = session(n=16, seed=3, noise_px=0.1, az_step=0.0)
+    r1 = solve_hand_eye(A1, obs1, CAM, refine_intrinsics=True)
+    assert r1.std_mm is not None and r1.std_mm[2] > 1.5 * r.std_mm[2]
 
 
 def test_bad_views_named_and_left_out():

@@ -67,7 +67,7 @@ def first_joints():
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory):
     d = tmp_path_factory.mktemp("views")
-    s = simulate_session(CAM, BOARD, n_views=11, seed=11, n_blurred=1, n_out_of_frame=1)
+    s = simulate_session(CAM, BOARD, n_views=11, seed=12, n_blurred=1, n_out_of_frame=1)
     write_view_folder(s, d, use_joints=True)
     return d, s
 
@@ -107,7 +107,7 @@ def test_folder_calibration_and_file_round_trip(folder, tmp_path):
 
 
 def test_manual_teach_with_operator_script():
-    s = simulate_session(CAM, BOARD, n_views=7, seed=4, pose_noise_mm=0, pose_noise_deg=0)
+    s = simulate_session(CAM, BOARD, n_views=7, seed=6, pose_noise_mm=0, pose_noise_deg=0)
     robot = FakeRobot(s.views[0].joints_deg, seed=1)
     camera = SimBoardCamera(CAM, BOARD, robot.true_pose)
     script = [v.joints_deg for v in s.views]
