@@ -127,9 +127,8 @@ def _alive(path: Path) -> bool:
         s.close()
 
 
-def send_request(path: str | os.PathLike[str], request: dict[str, Any],
-                 timeout_s: float = 10.0) -> dict[str, Any]:
-    """Send one request to a daemon's control socket and return its reply.
+def exchange(path: str | os.PathLike[str], data: bytes, timeout_s: float = 10.0) -> bytes:
+    """Send raw bytes to a daemon's control socket and return its reply line (bytes).
 
     Raises :class:`LinkError` when no daemon listens there or it does not answer in time.
     """
@@ -137,7 +136,7 @@ def send_request(path: str | os.PathLike[str], request: dict[str, Any],
     s.settimeout(timeout_s)
     try:
         s.connect(str(path))
-        s.sendall((json.dumps(request) + "\n").encode("utf-8"))
+        s.sendall(data)
         buf = b""
         while not buf.endswith(b"\n"):
             chunk = s.recv(65536)
@@ -151,6 +150,17 @@ def send_request(path: str | os.PathLike[str], request: dict[str, Any],
         raise LinkError(f"the daemon at {path} did not answer: {err}") from err
     finally:
         s.close()
+    return buf
+
+
+def send_request(path: str | os.PathLike[str], request: dict[str, Any],
+                 timeout_s: float = 10.0) -> dict[str, Any]:
+    """Send one request (a JSON object) to a daemon's control socket and return its reply.
+
+    Raises :class:`LinkError` when no daemon listens there, it does not answer in time, or its
+    reply is not JSON.
+    """
+    buf = exchange(path, (json.dumps(request) + "\n").encode("utf-8"), timeout_s)
     try:
         reply: dict[str, Any] = json.loads(buf.decode("utf-8"))
     except ValueError as err:

@@ -3,7 +3,6 @@
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -14,7 +13,7 @@ import pytest
 from daemon_harness import make_cell
 
 from controller.cell_config import load_cell_config
-from controller.control_socket import send_request
+from controller.control_socket import exchange, send_request
 from controller.cycle_record import read_record
 from controller.daemon import Daemon
 from controller.errors import ConfigError
@@ -59,18 +58,7 @@ def test_cycle_requested_by_the_controller(running):
 
 
 def raw(path, data: bytes) -> bytes:
-    s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    s.settimeout(10)
-    s.connect(str(path))
-    s.sendall(data)
-    buf = b""
-    while not buf.endswith(b"\n"):
-        chunk = s.recv(65536)
-        if not chunk:
-            break
-        buf += chunk
-    s.close()
-    return buf
+    return exchange(path, data)
 
 
 def test_bad_control_requests_keep_the_daemon_running(running):
