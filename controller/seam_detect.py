@@ -602,7 +602,9 @@ def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -
     depth_med = float(np.median(fit["depth"][sel][ok]))
     # Honest ends: where the sheets end (or the image does), found from the two sides separately.
     # Profiles within a profile length of an end may be crossed by the sheet border, so the
-    # last stretch of the curve is extrapolated from the samples before it.
+    # last stretch of the curve is extrapolated from the samples before it, only to guide short
+    # profiles that measure it again (:func:`_measure_tail`): a quadratic extrapolated over tens
+    # of pixels drifts by 1-2 px on a curve.
     w_med = float(np.median(fit["width"][sel][ok]))
     w_run = fit["width"][sel]
     m = int(np.ceil(p.half_width_px / p.step_px)) + 1
@@ -632,6 +634,8 @@ def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -
             tq = np.arange(-m + 1.0, t_end, 1.0)
             tq = np.append(tq, t_end)
             ext = np.column_stack([np.polyval(coef[:, k], tq) for k in range(2)])
+            der = np.column_stack([np.polyval(np.polyder(coef[:, k]), tq) for k in range(2)])
+            ext = _measure_tail(grey, lut, ext, der, w_med, p)
             keep_n = L - m
         else:
             ext = (e_pt + k_end * tang)[None, :]
@@ -665,6 +669,37 @@ def _refine(grey: NDArray[np.uint8], lut: F64, c: _Candidate, p: DetectParams) -
                           "(a pen mark or scratch, not a joint running border to border)")
         return
     c.score = length * c.depth * c.valid_frac
+
+
+def _measure_tail(grey: NDArray[np.uint8], lut: F64, guide: F64, der: F64, w_med: float,
+                  p: DetectParams) -> F64:
+    """Measure the last stretch of the seam (``guide``, extrapolated toward its end) again.
+
+    Profiles of full length there may be crossed by the sheet border, so the stretch was
+    extrapolated; an extrapolation over tens of pixels drifts on a curve. Short profiles (just
+    wider than the gap) are not reached by the border until the end itself: where they fit the
+    gap near the guide they replace it; within a profile length of the end (where even a short
+    profile may reach past the border) the guide is shifted by the offset measured last.
+    """
+    tang = der / (np.linalg.norm(der, axis=1, keepdims=True) + 1e-12)
+    nrm = np.column_stack([-tang[:, 1], tang[:, 0]])
+    hw = max(6.0, w_med / 2 + 5.0)
+    fit = _fit_at(grey, lut, guide, nrm, p, half_width=hw)
+    off = np.einsum("kd,kd->k", fit["centre"] - guide, nrm)
+    seg = np.linalg.norm(np.diff(guide, axis=0), axis=1)
+    to_end = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])
+    # A profile within its own length of the end may reach past the border: not used.
+    ok = (fit["valid"] & (np.abs(off) < 2.0) & (fit["width"] < 1.6 * w_med + 1.0)
+          & (to_end >= hw + 3.0))
+    if not ok.any():
+        return guide
+    idx = np.arange(len(guide), dtype=np.float64)
+    # Offsets from the guide along the stretch: measured where the profiles fit, linear between,
+    # the last measured one held to the end; then smoothed (one profile is noisy).
+    o = np.interp(idx, idx[ok], off[ok])
+    if len(o) >= 5:
+        o = savgol_filter(o, min(len(o) // 2 * 2 - 1, 7), 1, mode="interp")
+    return np.asarray(guide + nrm * o[:, None])
 
 
 def _track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectParams,
@@ -724,9 +759,9 @@ def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     delta = w_med / 2 + 2.5
     offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
     steps = [_side_crossings(grey, lut, q + o * nrm, ks) for o in offs]
-    k_line = _border_line(offs, steps)
+    k_line, unsure = _border_line(offs, steps)
     k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
-    kind = "sheet border"
+    kind = "unsure sheet border" if unsure else "sheet border"
     if k_line is not None:
         k = k_line
     elif k_border < 40.0:
@@ -739,7 +774,8 @@ def _end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     return float(k), kind
 
 
-def _border_line(offs: tuple[float, ...], steps: list[list[float]]) -> float | None:
+def _border_line(offs: tuple[float, ...],
+                 steps: list[list[float]]) -> tuple[float | None, bool]:
     """Distance along the seam at which a straight border through the steps meets the centreline.
 
     ``steps[i]`` are the step positions found on the line at offset ``offs[i]`` across the seam,
@@ -748,9 +784,13 @@ def _border_line(offs: tuple[float, ...], steps: list[list[float]]) -> float | N
     Every pair of first steps defines a border line (crossing the seam at 15 degrees or more);
     the one most lines agree with (within 1.5 px) wins, the inner one on a tie, and is fitted
     to them. A lone step, seen on one line only, is taken only from the centreline (offset 0).
+    Also says whether the end is unsure: the winner is seen on two lines only and another line
+    seen on as many crosses the seam more than 3 px away (a mark meeting the seam at the border
+    can do that; the inner one is then no better a guess than the other).
     """
     firsts = [(o, s[0]) for o, s in zip(offs, steps, strict=True) if s]
     best: tuple[int, float] | None = None  # (-agreeing lines, k at the centreline)
+    fits: list[tuple[int, float]] = []
     for i in range(len(firsts)):
         for j in range(i + 1, len(firsts)):
             (oa, ka), (ob, kb) = firsts[i], firsts[j]
@@ -760,14 +800,16 @@ def _border_line(offs: tuple[float, ...], steps: list[list[float]]) -> float | N
             sel = [(o, k) for o, k in firsts if abs(k - ka - s * (o - oa)) <= 1.5]
             o_arr, k_arr = np.array(sel).T
             k0 = float(np.polyfit(o_arr, k_arr, 1)[1])
+            fits.append((-len(sel), k0))
             if best is None or (-len(sel), k0) < best:
                 best = (-len(sel), k0)
     if best is not None:
-        return best[1]
+        rivals = [k for n, k in fits if n == best[0] and abs(k - best[1]) > 3.0]
+        return best[1], best[0] == -2 and bool(rivals)
     # A lone step counts only where the gap's own dark floor ends (a lone step beside the gap
     # may be a texture stripe or a dot).
     near = [k for o, k in firsts if o == 0]
-    return near[0] if near else None
+    return (near[0] if near else None), False
 
 
 def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> list[float]:
@@ -886,6 +928,11 @@ def _confidence(c: _Candidate, ratio: float) -> tuple[float, list[str]]:
         # line is a mark, not a joint. Never report that with high confidence.
         conf = min(conf * 0.6, 0.45)
         reasons.append("one end fades out inside a sheet: the seam may continue unseen")
+    if any(k.startswith("unsure") for k in c.end_kinds):
+        # Where the seam meets the border is not clear: an end point off by more than a few px
+        # would put the weld's start or stop in the wrong place.
+        conf = min(conf * 0.6, 0.45)
+        reasons.append("two sheet borders seen equally well at one end: the end point is unsure")
     if ratio > 0:
         reasons.append(f"next candidate {100 * ratio:.0f} % as strong")
     else:
