@@ -23,6 +23,8 @@ Usage::
    checked on odd ones (board pose predicted from the robot pose vs measured).
 3. OpenCV sample chessboard images (../shared/data/opencv-chessboard, left*.jpg): our
    intrinsics vs a direct cv2.calibrateCamera on the same corners, and vs the upstream reference.
+4. ``--auto-teach``: the automatic teach routine (``run_teach(auto_n=--views)``) against an
+   in-process IRB 2400 with the stated pose noise and the simulated board camera.
 """
 
 from __future__ import annotations
@@ -115,6 +117,78 @@ def run_sim(seeds, n_views, width):
             res["ours_consistency"] = [he.consistency_mm, he.consistency_deg]
             rows.append(res)
             print(json.dumps(res), file=sys.stderr)
+    return rows
+
+
+class _NoisyRobot:
+    """An in-process IRB 2400 for the automatic teach: FK of its joints, read back with the
+    stated pose noise (0.05 mm / 0.01 deg per axis)."""
+
+    def __init__(self, joints, seed):
+        from controller.kinematics import irb2400
+
+        self.robot = irb2400()
+        self.j = np.asarray(joints, float)
+        self.rng = np.random.default_rng(seed)
+
+    def true_pose(self):
+        from controller.kinematics import flange_pose
+
+        return flange_pose(self.robot, self.j)
+
+    def joints_deg(self):
+        return self.j.copy()
+
+    def flange_pose(self):
+        from drivers.sim_board import perturb
+
+        return perturb(self.true_pose(), self.rng, 0.05, 0.01)
+
+    def move_joints(self, joints_deg, timeout_s):
+        self.j = np.asarray(joints_deg, float)
+
+
+def run_auto_teach(seeds, n_views, width, fill=None, tilt=None):
+    """``seamguide calibrate --auto n_views`` against a simulated robot and camera (full size):
+    the first pose 330 mm straight above the board; hand-eye error against the truth."""
+    import io
+
+    import calibration.teach as teach
+    from controller.kinematics import irb2400, solve_ik
+    from drivers.sim_board import SimBoardCamera, default_board_pose, default_hand_eye, look_at
+
+    cam = default_camera(width, round(width * 1704 / 2272))
+    board = parse_board_spec("chessboard:9x6:20")
+    X, Y = default_hand_eye(), default_board_pose(board)
+    centre = Y[:3, :3] @ board.object_points().mean(axis=0) + Y[:3, 3]
+    T_bc = look_at(centre + np.array([0, 0, 330.0]), centre, 0.0)
+    j0 = solve_ik(irb2400(), T_bc @ invert(X))
+    saved = teach.AUTO_FILL, teach.AUTO_TILT_DEG
+    if fill is not None:
+        teach.AUTO_FILL = fill
+    if tilt is not None:
+        teach.AUTO_TILT_DEG = tuple(tilt)
+    rows = []
+    try:
+        for seed in seeds:
+            robot = _NoisyRobot(j0, seed)
+            camera = SimBoardCamera(cam, board, robot.true_pose, seed=seed)
+            t0 = time.perf_counter()
+            calib, report = teach.run_teach(robot, camera, board, auto_n=n_views,
+                                            out=io.StringIO(), holdout_every=0, seed=seed)
+            d_mm, d_deg = pose_error(calib.T_flange_cam, X)
+            he = report["hand_eye"]
+            rows.append({"seed": seed, "fill": teach.AUTO_FILL, "tilt_deg": teach.AUTO_TILT_DEG,
+                         "error_mm_deg": [d_mm, d_deg],
+                         "focal_error_pct": 100 * (calib.camera.fx / cam.fx - 1),
+                         "std_mm_cam_xyz": he.get("hand_eye_std_mm_cam_xyz"),
+                         "std_deg_cam_xyz": he.get("hand_eye_std_deg_cam_xyz"),
+                         "views_used": len(he["views_used"]),
+                         "without_board": report["views_without_board"],
+                         "s": round(time.perf_counter() - t0, 1)})
+            print(json.dumps(rows[-1], default=float), file=sys.stderr)
+    finally:
+        teach.AUTO_FILL, teach.AUTO_TILT_DEG = saved
     return rows
 
 
@@ -255,6 +329,8 @@ def main():
     ap.add_argument("--width", type=int, default=2272)
     ap.add_argument("--output", default=str(ROOT / "bench" / "calibration_results.json"))
     ap.add_argument("--skip-sim", action="store_true")
+    ap.add_argument("--auto-teach", action="store_true",
+                    help="also run the automatic teach (--auto VIEWS) on seeds 1..SEEDS")
     ap.add_argument("--dry-run", action="store_true",
                     help="also teach the dry run's cell and run dry runs with that calibration")
     args = ap.parse_args()
@@ -294,6 +370,15 @@ def main():
               f"calibrateCamera on the same corners: fx {d['fx']:.2f}, RMS {d['rms_px']:.3f} px "
               f"(max |K difference| {c['max_abs_K_difference']:.2e}); upstream reference fx "
               f"535.92, RMS 0.393 px.")
+    if args.auto_teach:
+        rows = run_auto_teach(list(range(1, args.seeds + 1)), args.views, args.width)
+        result["auto_teach"] = rows
+        print(f"\n## Automatic teach (--auto {args.views}, simulated robot and camera)\n")
+        print("| seed | error mm | error deg | focal % | one sigma mm (camera x, y, z) | views |")
+        print("|---|---|---|---|---|---|")
+        for r in rows:
+            print(f"| {r['seed']} | {r['error_mm_deg'][0]:.3f} | {r['error_mm_deg'][1]:.4f} | "
+                  f"{r['focal_error_pct']:.4f} | {r['std_mm_cam_xyz']} | {r['views_used']} |")
     if args.dry_run:
         dr = run_dry_run_check()
         result["dry_run"] = dr
