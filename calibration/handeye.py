@@ -422,6 +422,30 @@ def _consistency(motions: Sequence[F64], T_cb: Sequence[Pose], X: Pose, Y: Pose,
     return np.array(mm), np.array(deg)
 
 
+def _closed_forms(A: list[Pose], T_cb: list[Pose], eye_to_hand: bool, method: str,
+                  hint: str) -> tuple[dict[str, Pose], list[Pose], Pose, Pose]:
+    """Every closed form that succeeds, the robot motions, and ``method``'s X and the board's Y.
+
+    ``A`` are the robot poses (``T_base_flange``, mm), ``T_cb`` the board in the camera (mm). X is
+    the hand-eye of ``method`` (``T_flange_cam``; ``T_base_cam`` eye-to-hand), Y the board pose
+    averaged over the views (in the base frame; in the flange eye-to-hand). Raises
+    :class:`CalibrationError` (ending with ``hint``) when ``method`` fails.
+    """
+    motions = A if eye_to_hand else [invert(T) for T in A]
+    gripper = [invert(T) for T in A] if eye_to_hand else A
+    closed: dict[str, Pose] = {}
+    for m in CLOSED_FORM_METHODS:
+        try:
+            closed[m] = opencv_calibrate_hand_eye(gripper, T_cb, m)
+        except CalibrationError:
+            continue
+    if method not in closed:
+        raise CalibrationError(f"the closed-form hand-eye method {method} failed{hint}")
+    X = closed[method]
+    Y = _average_pose([invert(M) @ X @ T for M, T in zip(motions, T_cb, strict=True)])
+    return closed, motions, X, Y
+
+
 def closed_form(T_base_flange: Sequence[Pose], T_cam_board: Sequence[Pose], *,
                 method: str = "park", eye_to_hand: bool = False) -> tuple[Pose, Pose]:
     """(X, Y) by one closed-form method; Y is the average of every view's board pose.
@@ -485,20 +509,8 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
     obs = [o for o in observations if isinstance(o, Observation)]
     pnp = [_pnp(camera, o, nm[i]) for i, o in enumerate(obs)]
     T_cb = [p[0] for p in pnp]
-    motions = A if eye_to_hand else [invert(T) for T in A]
-    gripper = [invert(T) for T in A] if eye_to_hand else A
-
-    closed: dict[str, Pose] = {}
-    for m in CLOSED_FORM_METHODS:
-        try:
-            closed[m] = opencv_calibrate_hand_eye(gripper, T_cb, m)
-        except CalibrationError:
-            continue
-    if method not in closed:
-        raise CalibrationError(f"the closed-form hand-eye method {method} failed; the views "
-                               f"{', '.join(nm)} may be degenerate")
-    X = closed[method]
-    Y = _average_pose([invert(M) @ X @ T for M, T in zip(motions, T_cb, strict=True)])
+    closed, motions, X, Y = _closed_forms(A, T_cb, eye_to_hand, method,
+                                          f"; the views {', '.join(nm)} may be degenerate")
     intr = _intr_vector(camera)
     # Corner noise: the pooled PnP residual (PnP fits 6 of 2N numbers per view).
     sigma_px = max(0.02, float(np.sqrt(np.mean([p[1] ** 2 for p in pnp]))))
@@ -613,18 +625,7 @@ def _solve_pose_only(A: list[F64], T_cb: list[F64], nm: list[str], *, eye_to_han
                      min_views: int) -> HandEyeResult:
     """Hand-eye from board poses only (no corners): residuals are board-point distances (mm)."""
     n = len(A)
-    motions = A if eye_to_hand else [invert(T) for T in A]
-    gripper = [invert(T) for T in A] if eye_to_hand else A
-    closed: dict[str, Pose] = {}
-    for m in CLOSED_FORM_METHODS:
-        try:
-            closed[m] = opencv_calibrate_hand_eye(gripper, T_cb, m)
-        except CalibrationError:
-            continue
-    if method not in closed:
-        raise CalibrationError(f"the closed-form hand-eye method {method} failed")
-    X = closed[method]
-    Y = _average_pose([invert(M) @ X @ T for M, T in zip(motions, T_cb, strict=True)])
+    closed, motions, X, Y = _closed_forms(A, T_cb, eye_to_hand, method, "")
     # Virtual board points: corners of a 200 mm square and its centre.
     pts = np.array([[-100, -100, 0], [100, -100, 0], [100, 100, 0], [-100, 100, 0], [0, 0, 0]],
                    float)
