@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 from scipy.signal import savgol_filter
 
-from controller.seam_ends import end_offset, measure_tail
+from controller.seam_ends import end_offset, measure_tails
 from controller.seam_params import F64, Candidate, DetectParams
 from controller.seam_profiles import fit_at, resample, track_on
 
@@ -62,7 +62,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
     # Honest ends: where the sheets end (or the image does), found from the two sides separately.
     # Profiles within a profile length of an end may be crossed by the sheet border, so the
     # last stretch of the curve is extrapolated from the samples before it, only to guide short
-    # profiles that measure it again (:func:`measure_tail`): a quadratic extrapolated over tens
+    # profiles that measure it again (:func:`measure_tails`): a quadratic extrapolated over tens
     # of pixels drifts by 1-2 px on a curve.
     w_med = float(np.median(fit["width"][sel][ok]))
     w_run = fit["width"][sel]
@@ -70,6 +70,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
     n_fit = 12
     use_extrap = len(pts_run) >= 2 * (m + n_fit)
     parts: list[F64] = []
+    ders: list[F64] = []
     end_kinds: list[str] = []
     lo, hi = 0, len(pts_run)
     for first in (True, False):
@@ -93,8 +94,8 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
             tq = np.arange(-m + 1.0, t_end, 1.0)
             tq = np.append(tq, t_end)
             ext = np.column_stack([np.polyval(coef[:, k], tq) for k in range(2)])
-            der = np.column_stack([np.polyval(np.polyder(coef[:, k]), tq) for k in range(2)])
-            ext = measure_tail(grey, lut, ext, der, w_med, p)
+            ders.append(np.column_stack([np.polyval(np.polyder(coef[:, k]), tq)
+                                         for k in range(2)]))
             keep_n = L - m
         else:
             ext = (e_pt + k_end * tang)[None, :]
@@ -102,10 +103,12 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
             keep_n = int(np.sum(along < k_end - 0.5 * p.step_px))
         if first:
             lo = L - keep_n
-            parts.insert(0, ext[::-1])
         else:
             hi = keep_n
-            parts.append(ext)
+        parts.append(ext)
+    if use_extrap:
+        parts = measure_tails(grey, lut, parts, ders, w_med, p)
+    parts[0] = parts[0][::-1]
     c.end_kinds = (end_kinds[0], end_kinds[1])
     if hi - lo < 2:
         c.why_rejected = "seam candidate collapsed when its ends were measured"

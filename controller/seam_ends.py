@@ -1,15 +1,16 @@
 """Honest end points of the seam: where the sheets (or the image) end, and the last stretch before.
 
 :func:`end_offset` reads each side of the gap on lines parallel to the centreline and finds where a
-sheet border crosses them (a straight border: its crossings lie on one line); :func:`measure_tail`
+sheet border crosses them (a straight border: its crossings lie on one line); :func:`measure_tails`
 measures the last stretch before an end again with short profiles, which a border does not reach.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import savgol_filter
 
 from controller.seam_params import F64, DetectParams
 from controller.seam_profiles import bilinear, fit_at
@@ -17,9 +18,12 @@ from controller.seam_profiles import bilinear, fit_at
 _MIN_STEP = 0.25  # relative brightness step that marks a sheet border
 
 
-def measure_tail(grey: NDArray[np.uint8], lut: F64, guide: F64, der: F64, w_med: float,
-                 p: DetectParams) -> F64:
-    """Measure the last stretch of the seam (``guide``, extrapolated toward its end) again.
+def measure_tails(grey: NDArray[np.uint8], lut: F64, guides: list[F64], ders: list[F64],
+                  w_med: float, p: DetectParams) -> list[F64]:
+    """Measure the last stretches of the seam (``guides``, extrapolated toward its ends) again.
+
+    ``ders`` are the guides' tangents (not normalised). The profiles of all stretches are fitted
+    together (one fit call is cheaper than one per end), then each stretch as below.
 
     Profiles of full length there may be crossed by the sheet border, so the stretch was
     extrapolated; an extrapolation over tens of pixels drifts on a curve. Short profiles (just
@@ -27,10 +31,23 @@ def measure_tail(grey: NDArray[np.uint8], lut: F64, guide: F64, der: F64, w_med:
     gap near the guide they replace it; within a profile length of the end (where even a short
     profile may reach past the border) the guide is shifted by the offset measured last.
     """
+    der = np.vstack(ders)
     tang = der / (np.linalg.norm(der, axis=1, keepdims=True) + 1e-12)
-    nrm = np.column_stack([-tang[:, 1], tang[:, 0]])
+    nrms = np.column_stack([-tang[:, 1], tang[:, 0]])
     hw = max(6.0, w_med / 2 + 5.0)
-    fit = fit_at(grey, lut, guide, nrm, p, half_width=hw)
+    fits = fit_at(grey, lut, np.vstack(guides), nrms, p, half_width=hw)
+    out: list[F64] = []
+    i0 = 0
+    for guide in guides:
+        sl = slice(i0, i0 + len(guide))
+        i0 += len(guide)
+        fit = {k: fits[k][sl] for k in ("centre", "valid", "width")}
+        out.append(_tail(guide, nrms[sl], fit, hw, w_med))
+    return out
+
+
+def _tail(guide: F64, nrm: F64, fit: dict[str, NDArray[Any]], hw: float, w_med: float) -> F64:
+    """One stretch of :func:`measure_tails`: the guide corrected by the offsets measured."""
     off = np.einsum("kd,kd->k", fit["centre"] - guide, nrm)
     seg = np.linalg.norm(np.diff(guide, axis=0), axis=1)
     to_end = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])
@@ -44,8 +61,25 @@ def measure_tail(grey: NDArray[np.uint8], lut: F64, guide: F64, der: F64, w_med:
     # the last measured one held to the end; then smoothed (one profile is noisy).
     o = np.interp(idx, idx[ok], off[ok])
     if len(o) >= 5:
-        o = savgol_filter(o, min(len(o) // 2 * 2 - 1, 7), 1, mode="interp")
+        o = _moving_line(o, min(len(o) // 2 * 2 - 1, 7))
     return np.asarray(guide + nrm * o[:, None])
+
+
+def _moving_line(x: F64, win: int) -> F64:
+    """``savgol_filter(x, win, 1, mode="interp")`` (odd ``win`` <= len(x)) much faster.
+
+    A straight line fitted over a window is its mean at the centre: a moving average inside, and
+    at each end the line fitted to the first (last) ``win`` samples.
+    """
+    h = win // 2
+    out = np.array(x, dtype=np.float64)
+    out[h:len(x) - h] = np.convolve(x, np.full(win, 1.0 / win), mode="valid")
+    t = np.arange(win, dtype=np.float64) - h
+    for sl, ts in ((slice(0, win), slice(0, h)), (slice(len(x) - win, len(x)), slice(h + 1, win))):
+        seg = x[sl]
+        slope = float(t @ (seg - seg.mean())) / float(t @ t)
+        out[sl][ts] = seg.mean() + slope * t[ts]
+    return out
 
 
 def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
