@@ -5,6 +5,7 @@ import cv2
 import numpy as np
 import pytest
 import yaml
+from shared_data import CHESSBOARD, needs
 
 from calibration.calibration_file import load_calibration
 from calibration.export import export_hand_eye, pose_from_easy_handeye
@@ -15,7 +16,7 @@ from controller.errors import CalibrationError
 from controller.poses import pose_error
 from drivers.sim_board import simulate_session, write_view_folder
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opencv-chessboard"
+DATA = CHESSBOARD
 CAM = default_camera(640, 480)
 BOARD = parse_board_spec("chessboard:9x6:20")
 SPEC = "chessboard:9x6:20"
@@ -64,7 +65,7 @@ def test_images_intrinsics_only(folder, tmp_path, capsys):
     assert abs(doc["camera_matrix"]["data"][0] / CAM.fx - 1) < 0.003
 
 
-@pytest.mark.skipif(not DATA.exists(), reason="shared OpenCV chessboard images not present")
+@needs(DATA)
 def test_images_real_opencv_set(tmp_path, capsys):
     out = tmp_path / "left.yaml"
     assert main(["calibrate", "--images", str(DATA / "left*.jpg"), "--board",

@@ -4,11 +4,11 @@ Each injected fault must end in ``fault`` with the arc off, the robot stopped, t
 record, and no weld command sent after the fault.
 """
 
-from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from shared_data import CHESSBOARD, needs
 
 from calibration.calibration_file import Calibration
 from controller.cycle_record import read_record
@@ -17,7 +17,7 @@ from controller.errors import CameraError
 from controller.poses import make_pose
 
 pytestmark = pytest.mark.slow
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opencv-chessboard"
+DATA = CHESSBOARD
 
 
 def welds(mock):
@@ -99,9 +99,10 @@ def test_camera_failure(tmp_path):
         assert_safe_fault(rig, result, "camera")
 
 
+@needs(DATA)
 def test_no_seam_in_a_real_photograph(tmp_path):
     photo = cv2.imread(str(DATA / "left01.jpg"), cv2.IMREAD_GRAYSCALE)
-    assert photo is not None, "shared/data/opencv-chessboard/left01.jpg is missing"
+    assert photo is not None, f"{DATA / 'left01.jpg'} is not a readable image"
     with SimRig(speedup=200.0) as rig:
         cam = rig.calibration.camera
         big = cv2.resize(photo, (cam.width, cam.height), interpolation=cv2.INTER_LINEAR)

@@ -1,7 +1,7 @@
-from pathlib import Path
 
 import numpy as np
 import pytest
+from shared_data import ETHZ, needs
 
 from calibration.handeye import (
     CLOSED_FORM_METHODS,
@@ -196,7 +196,6 @@ def test_bad_residuals_refused():
     assert "view" in str(e.value)
 
 
-ETHZ = Path(__file__).resolve().parents[2] / "shared" / "data" / "ethz-handeye-robot-arm"
 
 
 def _ethz_stream(name):
@@ -207,7 +206,7 @@ def _ethz_stream(name):
     return a[:, 0], [make_pose(R[i], a[i, 1:4] * 1000.0) for i in range(len(a))]
 
 
-@pytest.mark.skipif(not ETHZ.exists(), reason="shared ETH hand-eye data not present")
+@needs(ETHZ)
 def test_real_robot_poses_ethz():
     """Real robot and SR300 target poses (no images): time alignment, AX = XB, consistency."""
     from calibration.handeye import pair_pose_streams

@@ -1,8 +1,8 @@
-from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from shared_data import CHESSBOARD, needs
 
 from calibration.intrinsics import image_coverage, solve_intrinsics
 from calibration.targets import detect_board, parse_board_spec
@@ -10,7 +10,7 @@ from controller.camera_model import default_camera
 from controller.errors import CalibrationError
 from controller.poses import make_pose, rotation_about, transform_points
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opencv-chessboard"
+DATA = CHESSBOARD
 CAM = default_camera(640, 480)
 BOARD = parse_board_spec("chessboard:9x6:20")
 
@@ -86,7 +86,7 @@ def _real_corners():
     return dets
 
 
-@pytest.mark.skipif(not DATA.exists(), reason="shared OpenCV chessboard images not present")
+@needs(DATA)
 def test_real_images_agree_with_direct_opencv():
     dets = _real_corners()
     r = solve_intrinsics([d.image_points for d in dets], [d.object_points for d in dets],
@@ -104,7 +104,7 @@ def test_real_images_agree_with_direct_opencv():
     assert r.std["fx"] < 1.0
 
 
-@pytest.mark.skipif(not DATA.exists(), reason="shared OpenCV chessboard images not present")
+@needs(DATA)
 def test_real_images_classic_corners_bad_view_rejected():
     """With the classic detector + 11x11 cornerSubPix (the upstream sample's settings), left02
     comes out at 1.2 px: the outlier rejection names it."""

@@ -1,10 +1,10 @@
 import glob
 import json
-from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from shared_data import CHESSBOARD, needs
 
 from calibration.calibration_file import Calibration, save_calibration
 from controller.camera_model import default_camera
@@ -17,7 +17,7 @@ from drivers.sim_scene import make_scene
 # Half-size images (1136x852) seen from 250 mm: the gap is as many pixels wide as in the full
 # 2272x1704 image from 350 mm, and a render takes a fraction of a second.
 CAM = default_camera().scaled(0.5)
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "opencv-chessboard"
+SHARED = CHESSBOARD
 
 
 def dist_to_polyline(P, Q):
@@ -93,7 +93,7 @@ def test_no_seam_in_view_is_refused():
     assert "candidates_seen" in err.value.details
 
 
-@pytest.mark.skipif(not SHARED.exists(), reason="../shared/data not present")
+@needs(SHARED)
 def test_real_photographs_without_a_seam_are_refused():
     files = sorted(glob.glob(str(SHARED / "*.jpg")))
     assert len(files) >= 10

@@ -1,8 +1,8 @@
-from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from shared_data import CHESSBOARD, needs
 
 from calibration.targets import BoardSpec, detect_board, parse_board_spec
 from controller.camera_model import default_camera
@@ -10,7 +10,7 @@ from controller.errors import ConfigError, InputError
 from controller.poses import make_pose, rotation_about
 from drivers.sim_board import render_board, true_corners
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opencv-chessboard"
+DATA = CHESSBOARD
 CAM = default_camera(640, 480)
 
 
@@ -88,7 +88,7 @@ def test_charuco_partial_view():
     assert np.abs(d.image_points - uv[d.ids]).max() < 0.5
 
 
-@pytest.mark.skipif(not DATA.exists(), reason="shared OpenCV chessboard images not present")
+@needs(DATA)
 def test_real_chessboard_images():
     b = parse_board_spec("chessboard:9x6:25")
     found = 0
