@@ -23,7 +23,8 @@ def register(sub: Any) -> None:
                        description="Sends one request to the daemon of the given configuration "
                        "over its local control socket and prints the JSON reply.")
     c.add_argument("--config", required=True, help="cell configuration (names the socket)")
-    c.add_argument("request", choices=["start", "status", "abort", "pause", "resume"])
+    c.add_argument("request", choices=["start", "status", "abort", "pause", "resume", "confirm",
+                                       "reject"])
     c.add_argument("job", nargs="?", help="job name (for start)")
     c.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the reply")
     c.set_defaults(func=_ctl)

@@ -1,7 +1,8 @@
 """The daemon's local control socket: one JSON object per line, one reply line per request.
 
 Requests: ``{"cmd": "start", "job": "demo"}``, ``{"cmd": "status"}``, ``{"cmd": "abort"}``,
-``{"cmd": "pause"}``, ``{"cmd": "resume"}``. Replies: ``{"ok": true, ...}`` or
+``{"cmd": "pause"}``, ``{"cmd": "resume"}``, and ``{"cmd": "confirm"}`` / ``{"cmd": "reject"}``
+for a weld path waiting for the operator. Replies: ``{"ok": true, ...}`` or
 ``{"ok": false, "error": "..."}``. A Unix domain socket created with owner-only permissions (0600)
 in a folder the daemon owns; there is no network listener. A malformed, unknown or oversize request
 gets an error reply and never disturbs the daemon. Documented in docs/daemon.md.

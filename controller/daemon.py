@@ -33,6 +33,7 @@ from controller.cycle import WeldCycle
 from controller.cycle_record import mark_interrupted, rotate_records
 from controller.errors import CameraError, ConfigError, LinkError, SeamguideError
 from controller.sd_notify import notify, watchdog_interval_s
+from controller.weld_path import WeldPath
 
 log = logging.getLogger(__name__)
 
@@ -101,6 +102,10 @@ class Daemon:
         self._server: ControlServer | None = None
         self.ready = threading.Event()
         self._ended = threading.Condition(self._lock)
+        # A weld path waiting for the operator (summary) and the answer; guarded by _lock.
+        self._awaiting: dict[str, Any] | None = None
+        self._decision: bool | None = None
+        self._decided = threading.Condition(self._lock)
 
     # ------------------------------------------------------------------ control requests
     def handle_request(self, req: dict[str, Any]) -> dict[str, Any]:
@@ -121,11 +126,24 @@ class Daemon:
                 self._wake.notify_all()
                 n = len(self._pending)
             return {"ok": True, "queued": job, "queue_length": n}
+        if cmd in ("confirm", "reject"):
+            with self._lock:
+                if self._awaiting is None:
+                    waiting = False
+                else:
+                    waiting = True
+                    self._decision = cmd == "confirm"
+                    self._decided.notify_all()
+            if not waiting:
+                return self._reject(f"{cmd}: no weld path is waiting for confirmation")
+            return {"ok": True, "confirmed": cmd == "confirm"}
         if cmd == "abort":
             with self._lock:
                 dropped = len(self._pending)
                 self._pending.clear()
                 cycle = self._cycle
+                self._decision = False if self._awaiting is not None else self._decision
+                self._decided.notify_all()
             if cycle is not None:
                 cycle.request_abort("operator abort (control socket)")
             return {"ok": True, "aborted": cycle is not None, "dropped_requests": dropped}
@@ -134,7 +152,8 @@ class Daemon:
                 self._paused = cmd == "pause"
                 self._wake.notify_all()
             return {"ok": True, "paused": cmd == "pause"}
-        return self._reject(f"unknown command {cmd!r}; use start, status, abort, pause, resume")
+        return self._reject(f"unknown command {cmd!r}; use start, status, abort, pause, "
+                            "resume, confirm, reject")
 
     def _reject(self, why: str) -> dict[str, Any]:
         with self._lock:
@@ -149,6 +168,7 @@ class Daemon:
                     "robot": self.robot_state, "camera": self.camera_state,
                     "queue_length": len(self._pending), "counters": dict(self.counters),
                     "config_reloads": self.reloads,
+                    "awaiting_confirmation": self._awaiting,
                     "last_cycle": self.last_cycle}
 
     def wait_cycles(self, n: int, timeout_s: float) -> bool:
@@ -166,6 +186,7 @@ class Daemon:
         self._stop.set()
         with self._lock:
             self._wake.notify_all()
+            self._decided.notify_all()
             cycle = self._cycle
         if cycle is not None:
             threading.Thread(target=cycle.request_abort, args=(reason,), daemon=True).start()
@@ -307,7 +328,8 @@ class Daemon:
         assert self.calibration is not None
         cycle = WeldCycle(self.robot, self.camera, self.calibration, job,
                           records_root=self.cfg.records.dir,
-                          safe_joints_deg=self.cfg.safe_joints_deg, on_state=self._on_state)
+                          safe_joints_deg=self.cfg.safe_joints_deg, on_state=self._on_state,
+                          confirm=self._await_confirmation)
         with self._lock:
             self._cycle = cycle
             self._cycle_job = job_name
@@ -342,6 +364,31 @@ class Daemon:
             self.camera_state = "closed"
         rotate_records(self.cfg.records.dir, self.cfg.records.max_age_days,
                        self.cfg.records.max_total_mb)
+
+    def _await_confirmation(self, path: WeldPath, timeout_s: float) -> bool:
+        """The operator's answer to a planned weld path (``ctl confirm`` / ``ctl reject``).
+
+        Waits up to ``timeout_s`` (the job's confirm timeout); no answer, an abort or a shutdown
+        is a no. ``status`` shows the path's summary (mm, base frame) meanwhile.
+        """
+        tips = np.array([t.T_base_tcp[:3, 3] for t in path.weld_targets])
+        summary = {"weld_points": len(tips),
+                   "length_mm": round(float(np.linalg.norm(np.diff(tips, axis=0), axis=1).sum()),
+                                      1),
+                   "first_mm": np.round(tips[0], 2).tolist(),
+                   "last_mm": np.round(tips[-1], 2).tolist(),
+                   "timeout_s": round(timeout_s, 1)}
+        log.warning("weld path waiting for the operator: %s; answer with `seamguide ctl confirm` "
+                    "or `reject`", summary)
+        notify("STATUS=waiting for the operator to confirm the weld path")
+        with self._lock:
+            self._awaiting, self._decision = summary, None
+            try:
+                self._decided.wait_for(lambda: self._decision is not None or self._stop.is_set(),
+                                       timeout=timeout_s)
+                return self._decision is True and not self._stop.is_set()
+            finally:
+                self._awaiting, self._decision = None, None
 
     def _on_state(self, name: str) -> None:
         with self._lock:

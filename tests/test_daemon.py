@@ -192,3 +192,41 @@ def test_sighup_reload_between_cycles(running):
     path.write_text("this is = not [valid toml")
     d._reload.set()
     assert send_request(sock, {"cmd": "status"})["ok"]  # a bad new file keeps the old one
+
+
+def test_operator_confirms_or_rejects_the_weld_path(tmp_path):
+    cfg_path = make_cell(tmp_path / "cell")
+    job = cfg_path.parent / "demo-job.toml"
+    job.write_text(job.read_text().replace("confirm = false", "confirm = true"))
+    d = Daemon(cfg_path)
+    t = threading.Thread(target=d.serve, daemon=True)
+    t.start()
+    sock = load_cell_config(cfg_path).control.socket
+    try:
+        assert d.ready.wait(30), "daemon did not become ready"
+        r = send_request(sock, {"cmd": "confirm"})
+        assert not r["ok"] and "no weld path is waiting" in r["error"]
+
+        def waiting():
+            return send_request(sock, {"cmd": "status"})["awaiting_confirmation"]
+
+        send_request(sock, {"cmd": "start", "job": "demo"})
+        summary = _wait_for(waiting, 120, "the path to wait for confirmation")
+        assert summary["weld_points"] > 10 and summary["length_mm"] > 50
+        assert send_request(sock, {"cmd": "status"})["state"] == "confirming"
+        assert send_request(sock, {"cmd": "reject"}) == {"ok": True, "confirmed": False}
+        assert d.wait_cycles(1, 60)
+        last = d.status()["last_cycle"]
+        assert last["status"] == "aborted" and "did not confirm" in last["reason"]
+        assert "arc_on" not in d.robot.mock.action_log and not d.robot.mock.arc_on
+
+        send_request(sock, {"cmd": "start", "job": "demo"})
+        _wait_for(waiting, 120, "the second path to wait for confirmation")
+        assert send_request(sock, {"cmd": "confirm"})["confirmed"]
+        assert d.wait_cycles(2, 120)
+        assert d.status()["last_cycle"]["status"] == "done"
+        assert d.status()["awaiting_confirmation"] is None
+    finally:
+        d.request_stop("test over")
+        t.join(60)
+    assert not t.is_alive()
