@@ -142,7 +142,8 @@ def summarise(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
             "success_rate": len(succ) / max(len(res), 1),
             "rms_median_px": pct(rms, 50), "rms_mean_px": float(np.mean(rms)) if rms else None,
             "rms_p95_px": pct(rms, 95), "end_median_px": pct(ends, 50),
-            "end_max_px": max(ends) if ends else None}
+            "end_max_px": max(ends) if ends else None,
+            "returned_max_median_px": pct([r["max"] for r in succ + wrong], 50)}
 
 
 def timing(runs: int) -> dict[str, float]:
@@ -195,7 +196,30 @@ def main(argv: list[str] | None = None) -> int:
           f"published {t['published']:.1f} ms")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(report, indent=1, default=float))
+    Path(args.out).with_suffix(".md").write_text(markdown_table(report, args.timing_runs))
     return 0
+
+
+def markdown_table(report: dict[str, Any], runs: int) -> str:
+    """The README table of a report: one row per difficulty and detector, then the times."""
+    def f(v: Any, unit: str = " px") -> str:
+        return "-" if v is None or (isinstance(v, float) and np.isnan(v)) else f"{v:.3f}{unit}"
+
+    lines = ["| difficulty | detector | success | wrong (confidence >= 0.5) | refused | 2D RMS "
+             "median / p95 | end error median / max | worst point of a returned seam, median |",
+             "|---|---|---|---|---|---|---|---|"]
+    for key, s in report["summary"].items():
+        d, name = key.split("/")
+        lines.append(f"| {d} | {name} | {s['success']}/{s['n']} ({100 * s['success_rate']:.0f} %)"
+                     f" | {s['wrong']} ({s['wrong_confident']}) | {s['refused']} | "
+                     f"{f(s['rms_median_px'])} / {f(s['rms_p95_px'])} | "
+                     f"{f(s['end_median_px'])} / {f(s['end_max_px'])} | "
+                     f"{f(s.get('returned_max_median_px'))} |")
+    t = report["timing_ms"]
+    lines.append("")
+    lines.append(f"Time per 2272x1704 image, median of {runs} runs: ours {t['ours']:.1f} ms, "
+                 f"published {t['published']:.1f} ms.")
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":
