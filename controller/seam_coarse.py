@@ -4,9 +4,11 @@ On the image shrunk by ``coarse_factor`` (box average, so a thin gap stays visib
 *relative valley depth* ``(min(I(p + r n), I(p - r n)) - I(p)) / min(...)`` in four directions is
 high only where both sides are brighter than the centre: a step edge (sheet border), a dot or a
 wide dark band give ~0, and dividing by the local brightness makes it independent of uneven light
-and glare. Connected components of the thresholded depth, long ones kept, become ordered polylines
-by tracking the strongest pixel per bin along the component's main axis (a crossing mark is left
-behind); candidates that continue each other across a short hole are joined.
+and glare. Connected components of the thresholded depth become ordered polylines by tracking the
+strongest pixel per bin along the component's main axis (a crossing mark is left behind); pieces
+shorter than a seam (a faint gap dips under the threshold here and there) are joined when they
+continue each other across a short hole, long ones kept, and those joined again across a longer
+hole (glare, a dot on the seam).
 """
 
 from __future__ import annotations
@@ -42,9 +44,11 @@ def coarse_candidates(grey: NDArray[np.uint8], lut: F64,
     mask = (best > p.min_depth).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     cands: list[Candidate] = []
-    min_len_c = p.min_length_px / f
-    idx = [i for i in range(1, n)
-           if np.hypot(stats[i, cv2.CC_STAT_WIDTH], stats[i, cv2.CC_STAT_HEIGHT]) >= min_len_c]
+    diag = np.hypot(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
+    # A faint gap dips under the threshold here and there and falls apart into pieces shorter
+    # than a seam: pieces are kept, and joined when they continue each other across a short hole.
+    idx = [i for i in range(1, n) if diag[i] >= p.piece_length_px / f]
+    n_long = int(np.sum(diag[1:] >= p.min_length_px / f))
     for i in idx:
         x, y, ww, hh = stats[i, :4]
         sl = labels[y:y + hh, x:x + ww] == i
@@ -55,56 +59,60 @@ def coarse_candidates(grey: NDArray[np.uint8], lut: F64,
             continue
         poly_full = (poly + 0.5) * f - 0.5
         length = float(np.sum(np.linalg.norm(np.diff(poly_full, axis=0), axis=1)))
-        if length < p.min_length_px:
-            continue
         cands.append(Candidate(poly_full, float(np.sum(wts)) * f, length))
-    cands = _join_candidates(cands, p.join_px)
+    cands = _join_candidates(cands, p.piece_join_px, 2.0 * f)
+    cands = [c for c in cands if c.length_px >= p.min_length_px]
+    cands = _join_candidates(cands, p.join_px, 2.0 * f)
     cands.sort(key=lambda c: -c.coarse_score)
-    return cands, len(idx)
+    return cands, n_long
 
 
-def _join_candidates(cands: list[Candidate], join_px: float) -> list[Candidate]:
-    """Join candidates that continue each other across a short hole (glare, a dot on the seam)."""
+def _join_candidates(cands: list[Candidate], join_px: float,
+                     slack_px: float) -> list[Candidate]:
+    """Join candidates that continue each other across a short hole (glare, a dot on the seam).
+
+    Each end's tangent line must pass near the other end (within a 25 degree cone, or a few
+    coarse px across a short hole) and the two tangents agree: one curve, not a branch.
+    """
     cos_max = np.cos(np.radians(25.0))
-
-    def end_dir(poly: F64, at_end: bool) -> tuple[F64, F64]:
-        n = min(len(poly) - 1, 10)
-        e, q = (poly[-1], poly[-1 - n]) if at_end else (poly[0], poly[n])
-        t = e - q
-        return e, t / (np.linalg.norm(t) + 1e-12)
-
+    tan_max = np.tan(np.radians(25.0))
+    ends = [_end_dirs(c.polyline) for c in cands]
     merged = True
     while merged and len(cands) > 1:
         merged = False
-        for i in range(len(cands)):
-            for j in range(i + 1, len(cands)):
-                a, b = cands[i].polyline, cands[j].polyline
-                for a_end in (True, False):
-                    for b_end in (False, True):
-                        ea, ta = end_dir(a, a_end)
-                        eb, tb = end_dir(b, b_end)
-                        v = eb - ea
-                        d = float(np.linalg.norm(v))
-                        if d > join_px:
-                            continue
-                        v = v / (d + 1e-12)
-                        if d > 3 and (ta @ v < cos_max or tb @ -v < cos_max):
-                            continue
-                        pa = a if a_end else a[::-1]
-                        pb = b[::-1] if b_end else b
-                        cands[i] = Candidate(np.vstack([pa, pb]),
-                                             cands[i].coarse_score + cands[j].coarse_score,
-                                             cands[i].length_px + cands[j].length_px + d)
-                        del cands[j]
-                        merged = True
-                        break
-                    if merged:
-                        break
-                if merged:
-                    break
+        pos = np.array([[e[0][0], e[1][0]] for e in ends])  # (n, 2 ends, 2)
+        near = np.linalg.norm(pos[:, None, :, None] - pos[None, :, None, :], axis=-1) <= join_px
+        for i, j in zip(*np.nonzero(np.triu(near.any(axis=(2, 3)), 1)), strict=True):
+            for a_end, b_end in ((1, 0), (1, 1), (0, 0), (0, 1)):
+                ea, ta = ends[i][a_end]
+                eb, tb = ends[j][b_end]
+                v = eb - ea
+                d = float(np.linalg.norm(v))
+                tol = slack_px + d * tan_max
+                if (d > join_px or abs(ta[0] * v[1] - ta[1] * v[0]) > tol or ta @ v < -slack_px
+                        or abs(tb[0] * v[1] - tb[1] * v[0]) > tol or tb @ -v < -slack_px
+                        or ta @ -tb < cos_max):
+                    continue
+                pa = cands[i].polyline if a_end else cands[i].polyline[::-1]
+                pb = cands[j].polyline[::-1] if b_end else cands[j].polyline
+                cands[i] = Candidate(np.vstack([pa, pb]),
+                                     cands[i].coarse_score + cands[j].coarse_score,
+                                     cands[i].length_px + cands[j].length_px + d)
+                ends[i] = _end_dirs(cands[i].polyline)
+                del cands[j], ends[j]
+                merged = True
+                break
             if merged:
                 break
     return cands
+
+
+def _end_dirs(poly: F64) -> tuple[tuple[F64, F64], tuple[F64, F64]]:
+    """(point, outward unit tangent over ~10 points) at the start and at the end of ``poly``."""
+    n = min(len(poly) - 1, 10)
+    t0, t1 = poly[0] - poly[n], poly[-1] - poly[-1 - n]
+    return ((poly[0], t0 / (np.linalg.norm(t0) + 1e-12)),
+            (poly[-1], t1 / (np.linalg.norm(t1) + 1e-12)))
 
 
 def _order_pixels(xs: NDArray[Any], ys: NDArray[Any], w: NDArray[Any]) -> F64 | None:

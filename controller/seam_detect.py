@@ -10,7 +10,8 @@ joint's, so this looks for the *shape*, not for edges:
    It is high only where both sides are brighter than the centre: a step edge (sheet border), a
    dot or a wide dark band give ~0, and dividing by the local brightness makes it independent of
    uneven light and glare (adaptive rather than a fixed threshold).
-2. **Candidates**: connected components of the thresholded depth, long ones kept; each becomes an
+2. **Candidates**: connected components of the thresholded depth (pieces of a faint gap that dips
+   under the threshold are joined when they continue each other), long ones kept; each becomes an
    ordered polyline by binning its pixels along its principal axis (any orientation in the image;
    the curve must be monotonic along some direction: straight seams, arcs up to a half circle,
    S-curves).

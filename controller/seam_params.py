@@ -23,7 +23,9 @@ class DetectParams:
     ``coarse_factor``: shrink factor of the search image (0: automatic, ~560 px wide).
     ``valley_r_coarse``: distance (coarse px) from the valley centre to where both sides are read.
     ``min_depth``: relative valley depth that marks a candidate pixel (0..1).
-    ``min_length_px``: shortest candidate kept (px along the curve).
+    ``min_length_px``: shortest candidate kept (px along the curve); ``piece_length_px``: shortest
+    piece of valley kept to be joined with others that continue it across at most
+    ``piece_join_px`` (a faint gap breaks up where it dips under ``min_depth``).
     ``step_px``: spacing of the refinement profiles along the seam; ``half_width_px``: half
     length of each profile. ``max_gap_px``: widest gap accepted. ``ambiguity_ratio``: a second
     candidate at least this strong relative to the best makes the result ambiguous.
@@ -44,6 +46,8 @@ class DetectParams:
     min_profile_depth: float = 0.25
     bridge_px: float = 200.0
     join_px: float = 200.0
+    piece_length_px: float = 100.0
+    piece_join_px: float = 48.0
     ambiguity_ratio: float = 0.6
     min_confidence: float = 0.5
     max_candidates: int = 4

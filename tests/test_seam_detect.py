@@ -174,3 +174,23 @@ def test_an_end_between_two_equally_supported_border_lines_is_unsure():
     # Three lines against two: the three win, sure enough.
     k, unsure = _border_line(offs, [[2.0], [2.0], [2.0], [10.4], [10.4]])
     assert k == pytest.approx(2.0) and not unsure
+
+
+def test_pieces_of_a_faint_gap_are_joined_but_not_a_branch():
+    """A faint gap breaks into pieces shorter than a seam: pieces that continue each other are
+    joined across a short hole (even with a small sideways step), a piece at an angle is not."""
+    from controller.seam_coarse import _join_candidates
+    from controller.seam_params import Candidate
+
+    def piece(p0, p1):
+        t = np.linspace(0.0, 1.0, 40)[:, None]
+        poly = np.asarray(p0, float) + t * (np.asarray(p1, float) - p0)
+        return Candidate(poly, 1.0, float(np.linalg.norm(np.subtract(p1, p0))))
+
+    a, b = piece((0, 0), (200, 0)), piece((210, 6), (400, 8))
+    joined = _join_candidates([a, b], 48.0, 8.0)
+    assert len(joined) == 1 and joined[0].length_px > 390
+    branch = piece((205, 5), (260, 150))  # starts near the end but turns away
+    assert len(_join_candidates([piece((0, 0), (200, 0)), branch], 48.0, 8.0)) == 2
+    far = piece((300, 0), (500, 0))  # lines up but the hole is too long for pieces
+    assert len(_join_candidates([piece((0, 0), (200, 0)), far], 48.0, 8.0)) == 2
