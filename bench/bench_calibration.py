@@ -334,7 +334,9 @@ def main():
     ap.add_argument("--dry-run", action="store_true",
                     help="also teach the dry run's cell and run dry runs with that calibration")
     args = ap.parse_args()
-    result = {}
+    out = Path(args.output)
+    # Sections not run this time (e.g. with --skip-sim) keep their last figures.
+    result = json.loads(out.read_text()) if out.is_file() else {}
     if not args.skip_sim:
         rows = run_sim(list(range(1, args.seeds + 1)), args.views, args.width)
         result["simulated"] = rows
@@ -392,7 +394,7 @@ def main():
                 rms = "-" if r[0] is None else f"{r[0]:.3f}"
                 mx = "-" if r[1] is None else f"{r[1]:.3f}"
                 print(f"| {name} | {k} | {rms} | {mx} | {r[2]} |")
-    Path(args.output).write_text(json.dumps(result, indent=1, default=float) + "\n")
+    out.write_text(json.dumps(result, indent=1, default=float) + "\n")
 
 
 if __name__ == "__main__":
