@@ -102,7 +102,9 @@ def test_every_message_fits_80_characters():
 
 def test_mock_error_texts_fit():
     # Every error text the mock writes, with the longest numbers in it.
-    src = (Path(__file__).resolve().parents[1] / "drivers" / "mock_controller.py").read_text()
+    # the mock controller is split into drivers/mock_*.py modules: read them all
+    src = "".join(f.read_text() for f in sorted(
+        (Path(__file__).resolve().parents[1] / "drivers").glob("mock_*.py")))
     for text in re.findall(r'error_body\(\d+, f?"([^"]*)"', src):
         filled = re.sub(r"\{[^}]*\}", "9999", text)
         line = codec.encode_frame("A", 99, codec.error_body(99, filled))

@@ -298,7 +298,9 @@ def test_rapid_and_mock_serve_the_same_requests_and_errors():
     rapid_cmds = set(re.findall(r'c = "([A-Z]{2})"', RAPID))
     mock_cmds = {n[len("_cmd_"):] for n in dir(MockController) if n.startswith("_cmd_")}
     assert rapid_cmds == mock_cmds
-    src = (Path(__file__).resolve().parents[1] / "drivers" / "mock_controller.py").read_text()
+    # the mock controller is split into drivers/mock_*.py modules: read them all
+    src = "".join(f.read_text() for f in sorted(
+        (Path(__file__).resolve().parents[1] / "drivers").glob("mock_*.py")))
     rapid_codes = {int(c) for c in re.findall(r'"ER (\d\d) ', RAPID)}
     mock_codes = {int(c) for c in re.findall(r"error_body\((\d\d),", src)}
     assert rapid_codes == mock_codes
