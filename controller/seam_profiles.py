@@ -107,26 +107,34 @@ def _fit_profiles(x: F64, prof: F64, iterations: int) -> tuple[F64, F64]:
     val, J = _model(x, prm)
     res = prof - val
     cost = np.sum(res * res, axis=1)
+    # Only profiles still moving are iterated: most have converged after a few steps, and the
+    # model evaluation is most of the detector's time.
+    active = np.arange(K)
     for _ in range(iterations):
-        JT = np.transpose(J, (0, 2, 1))
-        A = JT @ J
-        g = np.einsum("ksp,ks->kp", J, res)
+        Ja, ra = J[active], res[active]
+        A = np.transpose(Ja, (0, 2, 1)) @ Ja
+        g = np.einsum("ksp,ks->kp", Ja, ra)
         dg = np.einsum("kii->ki", A)
-        A2 = A + (lam[:, None] * (dg + 1e-9))[:, :, None] * np.eye(6)[None]
+        A2 = A + (lam[active, None] * (dg + 1e-9))[:, :, None] * np.eye(6)[None]
         try:
             step = np.linalg.solve(A2, g[:, :, None])[:, :, 0]
         except np.linalg.LinAlgError:
             break
-        new = prm + step
+        new = prm[active] + step
         new[:, 4] = np.clip(new[:, 4], 0.05, 40.0)
         new[:, 5] = np.clip(new[:, 5], 0.2, 6.0)
         v2, J2 = _model(x, new)
-        r2 = prof - v2
+        r2 = prof[active] - v2
         c2 = np.sum(r2 * r2, axis=1)
-        better = c2 < cost
-        prm[better], J[better], res[better], cost[better] = new[better], J2[better], r2[better], \
-            c2[better]
-        lam = np.where(better, lam * 0.3, lam * 5.0)
+        better = c2 < cost[active]
+        idx = active[better]
+        prm[idx], J[idx], res[idx], cost[idx] = new[better], J2[better], r2[better], c2[better]
+        lam[active] = np.where(better, lam[active] * 0.3, lam[active] * 5.0)
+        # Converged: an accepted step that moved the centre and width by under 1e-4 px.
+        done = better & (np.abs(step[:, 3]) < 1e-4) & (np.abs(step[:, 4]) < 1e-4)
+        active = active[~done]
+        if active.size == 0:
+            break
     return prm, np.sqrt(cost / S)
 
 
