@@ -141,7 +141,11 @@ def load_cell_config(path: str | os.PathLike[str]) -> CellConfig:
 
 def check_config(path: str | os.PathLike[str]) -> list[str]:
     """Full check: the configuration, every job and the calibration; returns a report."""
+    import numpy as np
+
     from calibration.calibration_file import load_calibration
+    from controller.kinematics import flange_pose, irb2400
+    from controller.view_geometry import view_layout_warning
 
     cfg = load_cell_config(path)
     lines = [f"cell {cfg.name}: configuration {cfg.path} is valid"]
@@ -152,4 +156,11 @@ def check_config(path: str | os.PathLike[str]) -> list[str]:
         job = cfg.job(name)
         taught = sum(v.joints_deg is not None for v in job.views)
         lines.append(f"job {name}: {cfg.jobs[name]}: {len(job.views)} views ({taught} taught)")
+        if calib.T_flange_cam is not None and taught == len(job.views) >= 2:
+            model = irb2400()
+            poses = [flange_pose(model, np.asarray(v.joints_deg)) @ calib.T_flange_cam
+                     for v in job.views]
+            warning = view_layout_warning(poses)
+            if warning is not None:
+                lines.append(f"WARNING job {name}: {warning}")
     return lines

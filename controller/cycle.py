@@ -257,8 +257,15 @@ class WeldCycle:
         self._check_abort()
 
     def _locate(self) -> Seam3D:
+        from controller.view_geometry import view_layout_warning
+
         t = self.job.timeouts.locate_s
         cam = self.calibration.camera
+        warning = view_layout_warning(self.result.camera_poses)
+        if warning is not None:
+            log.warning("job %s: %s", self.job.name, warning)
+            if self.record is not None:
+                self.record.note(view_layout_warning=warning)
         observations = []
         for view, image, T in zip(self.job.views, self.result.images, self.result.camera_poses,
                                   strict=True):

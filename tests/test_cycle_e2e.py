@@ -53,6 +53,21 @@ def test_good_cycle_welds_within_a_third_of_a_millimetre(tmp_path):
         assert (r.record_path / f).is_file(), f
 
 
+def test_views_rolled_alike_are_warned_about_in_the_record(tmp_path):
+    import dataclasses
+
+    from controller.dry_run import view_joints
+
+    with SimRig(speedup=200.0) as rig:
+        assert "view_layout_warning" not in read_record(rig.cycle(tmp_path / "a").run()
+                                                         .record_path)
+        alike = view_joints(rig.scene, rig.cell, roll_deg=0.0)
+        views = [dataclasses.replace(v, joints_deg=tuple(float(x) for x in j))
+                 for v, j in zip(rig.job.views, alike, strict=True)]
+        result = rig.cycle(tmp_path / "b", job=dataclasses.replace(rig.job, views=views)).run()
+        assert "would go unnoticed" in read_record(result.record_path)["view_layout_warning"]
+
+
 def test_controller_error_mid_weld(tmp_path):
     with SimRig(robot_options="fail_at_point=5", speedup=200.0) as rig:
         result = rig.cycle(tmp_path).run()
