@@ -7,7 +7,7 @@ suggested view poses with the simulated cell's exact calibration (renders cached
 bench/cache/stereo/, git-ignored). Rows, all measured in the same run on the same images:
 
 * ``oracle``: the true image curves triangulated by our locate (the error of geometry alone);
-* ``ours``: our detector + our locate;
+* ``ours``: our detector (the views in two threads, as the cycle runs it) + our locate;
 * ``published epipolar+poly7`` / ``published closest rays``: the published stereo methods
   (bench/published_stereo.py) on our detections;
 * ``published pipeline``: the published detector port (bench/published_detect.py) + epipolar+poly7.
@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 from controller.errors import SeamguideError, TriangulationError  # noqa: E402
 from controller.locate import ViewObservation, locate_seam  # noqa: E402
 from controller.poses import invert, make_pose, rotation_about  # noqa: E402
-from controller.seam_detect import detect_seam  # noqa: E402
+from controller.seam_detect import detect_seam, detect_seams  # noqa: E402
 from controller.triangulate import PolylineDistance  # noqa: E402
 from drivers.sim_cell import default_sim_cell  # noqa: E402
 from drivers.sim_render import render, suggest_view_poses  # noqa: E402
@@ -166,21 +166,21 @@ def fn_oracle(imgs, tpx, poses, scene, cell, calib_cam=None, calib_T=None):
 def fn_ours(imgs, tpx, poses, scene, cell, calib_cam=None, calib_T=None):
     cam = calib_cam or cell.camera
     T = calib_T or poses
-    curves = [detect_seam(im, camera=cam).points_px for im in imgs]
+    curves = [d.points_px for d in detect_seams(imgs, camera=cam)]
     return locate_seam(observations(cam, T, curves), nominal_region=region(scene)).dense_points_mm
 
 
 def fn_pub_epi(imgs, tpx, poses, scene, cell):
     from published_stereo import epipolar_poly7
 
-    curves = [detect_seam(im, camera=cell.camera).points_px for im in imgs]
+    curves = [d.points_px for d in detect_seams(imgs, camera=cell.camera)]
     return epipolar_poly7(cell.camera, curves[0], poses[0], curves[1], poses[1])
 
 
 def fn_pub_rays(imgs, tpx, poses, scene, cell):
     from published_stereo import closest_rays
 
-    curves = [detect_seam(im, camera=cell.camera).points_px for im in imgs]
+    curves = [d.points_px for d in detect_seams(imgs, camera=cell.camera)]
     return closest_rays(cell.camera, curves[0], poses[0], curves[1], poses[1])
 
 

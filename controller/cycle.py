@@ -257,6 +257,7 @@ class WeldCycle:
         self._check_abort()
 
     def _locate(self) -> Seam3D:
+        from controller.seam_detect import detect_seams
         from controller.view_geometry import view_layout_warning
 
         t = self.job.timeouts.locate_s
@@ -267,9 +268,11 @@ class WeldCycle:
             if self.record is not None:
                 self.record.note(view_layout_warning=warning)
         observations = []
-        for view, image, T in zip(self.job.views, self.result.images, self.result.camera_poses,
-                                  strict=True):
-            det = self.detector(image, camera=cam, roi=self._roi(T))
+        dets = detect_seams(self.result.images, camera=cam,
+                            rois=[self._roi(T) for T in self.result.camera_poses],
+                            detector=self.detector)
+        for view, image, T, det in zip(self.job.views, self.result.images,
+                                       self.result.camera_poses, dets, strict=True):
             self.result.detections.append(det)
             if self.record is not None:
                 self._save_overlay(view.name, image, det)

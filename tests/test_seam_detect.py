@@ -194,3 +194,17 @@ def test_pieces_of_a_faint_gap_are_joined_but_not_a_branch():
     assert len(_join_candidates([piece((0, 0), (200, 0)), branch], 48.0, 8.0)) == 2
     far = piece((300, 0), (500, 0))  # lines up but the hole is too long for pieces
     assert len(_join_candidates([piece((0, 0), (200, 0)), far], 48.0, 8.0)) == 2
+
+
+def test_several_views_at_once_match_one_by_one_and_raise_in_order(cases):
+    from controller.seam_detect import detect_seams
+
+    images = [cases["arc"].image, cases["s_curve"].image]
+    together = detect_seams(images)
+    for im, det in zip(images, together, strict=True):
+        assert np.array_equal(det.points_px, detect_seam(im).points_px)
+    blank = np.full_like(images[0], 120)
+    with pytest.raises(SeamNotFound):
+        detect_seams([images[0], blank])
+    with pytest.raises(InputError, match="regions of interest"):
+        detect_seams(images, rois=[None])
