@@ -37,6 +37,10 @@ from controller.weld_path import WeldPath
 
 log = logging.getLogger(__name__)
 
+#: The job timeout (a ``TimeoutsSpec`` field) that bounds each cycle state, for the watchdog.
+STATE_TIMEOUTS = {"moving_to_view": "move_s", "capturing": "capture_s", "locating": "locate_s",
+                  "planning": "plan_s", "confirming": "confirm_s", "welding": "weld_s"}
+
 
 def open_cell_robot(cfg: CellConfig) -> Any:
     """The cell's robot (not yet opened)."""
@@ -106,6 +110,11 @@ class Daemon:
         self._awaiting: dict[str, Any] | None = None
         self._decision: bool | None = None
         self._decided = threading.Condition(self._lock)
+        # Watchdog: the serve loop checks in between cycles; a running cycle is alive until its
+        # state's own timeout has passed (monotonic seconds; guarded by _lock).
+        self._checked_in = time.monotonic()
+        self._state_deadline = 0.0
+        self._cycle_timeouts: Any = None
 
     # ------------------------------------------------------------------ control requests
     def handle_request(self, req: dict[str, Any]) -> dict[str, Any]:
@@ -223,12 +232,13 @@ class Daemon:
                  self.cfg.control.socket)
         self.ready.set()
         wd = watchdog_interval_s()
-        next_wd = time.monotonic()
+        if wd is not None:
+            threading.Thread(target=self._watchdog, args=(wd,), name="watchdog",
+                             daemon=True).start()
         try:
             while not self._stop.is_set():
-                if wd is not None and time.monotonic() >= next_wd:
-                    notify("WATCHDOG=1")
-                    next_wd = time.monotonic() + wd
+                with self._lock:
+                    self._checked_in = time.monotonic()
                 if self._reload.is_set():
                     self._do_reload()
                 if self.robot is None:
@@ -333,6 +343,7 @@ class Daemon:
         with self._lock:
             self._cycle = cycle
             self._cycle_job = job_name
+            self._cycle_timeouts = job.timeouts
         notify(f"STATUS=cycle of job {job_name} running")
         log.info("cycle of job %s started (requested by %s)", job_name, source)
         try:
@@ -392,7 +403,28 @@ class Daemon:
 
     def _on_state(self, name: str) -> None:
         with self._lock:
+            limit = getattr(self._cycle_timeouts, STATE_TIMEOUTS.get(name, ""), None)
             self._cycle_state = name
+            self._checked_in = time.monotonic()
+            self._state_deadline = self._checked_in + (limit if limit is not None else 60.0)
+
+    def _watchdog(self, interval_s: float) -> None:
+        """Ping systemd's watchdog every ``interval_s`` while the daemon is alive.
+
+        Alive: the serve loop checked in within two intervals, or a cycle is inside its current
+        state's timeout (a weld may run for minutes; the cycle enforces that timeout itself, so a
+        cycle stuck beyond it means the daemon hangs, and systemd restarts it).
+        """
+        while not self._stop.wait(interval_s):
+            now = time.monotonic()
+            with self._lock:
+                alive = (now - self._checked_in <= 2 * interval_s
+                         or (self._cycle is not None and now <= self._state_deadline + interval_s))
+            if alive:
+                notify("WATCHDOG=1")
+            else:
+                log.error("watchdog: the serve loop has not checked in for %.1f s; not pinging",
+                          now - self._checked_in)
 
     def _do_reload(self) -> None:
         self._reload.clear()

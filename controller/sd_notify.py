@@ -20,9 +20,10 @@ def notify(state: str) -> bool:
     try:
         with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as s:
             s.connect(addr)
-            s.sendall(state.encode("utf-8"))
+            # Never block the daemon on a slow or stuck receiver: a full queue drops the message.
+            s.send(state.encode("utf-8"), socket.MSG_DONTWAIT)
         return True
-    except OSError:
+    except OSError:  # BlockingIOError (queue full) included
         return False
 
 

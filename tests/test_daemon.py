@@ -1,8 +1,10 @@
 """The cell daemon in-process (threads) and as a real process (signals, SIGKILL and restart)."""
 
+import contextlib
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -229,4 +231,46 @@ def test_operator_confirms_or_rejects_the_weld_path(tmp_path):
     finally:
         d.request_stop("test over")
         t.join(60)
+    assert not t.is_alive()
+
+
+def test_watchdog_keeps_pinging_through_a_long_state_of_a_cycle(tmp_path, monkeypatch):
+    """A cycle waiting for the operator (or welding for minutes) blocks the serve loop; the
+    watchdog thread still pings because the state is within its timeout."""
+    notify_path = str(tmp_path / "notify.sock")
+    srv = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    srv.bind(notify_path)
+    monkeypatch.setenv("NOTIFY_SOCKET", notify_path)
+    monkeypatch.setenv("WATCHDOG_USEC", "200000")  # ping every 0.1 s
+    monkeypatch.setenv("WATCHDOG_PID", str(os.getpid()))
+    cfg_path = make_cell(tmp_path / "cell")
+    job = cfg_path.parent / "demo-job.toml"
+    job.write_text(job.read_text().replace("confirm = false", "confirm = true"))
+    d = Daemon(cfg_path)
+    t = threading.Thread(target=d.serve, daemon=True)
+    t.start()
+    sock = load_cell_config(cfg_path).control.socket
+    try:
+        assert d.ready.wait(30), "daemon did not become ready"
+        send_request(sock, {"cmd": "start", "job": "demo"})
+        _wait_for(lambda: send_request(sock, {"cmd": "status"})["awaiting_confirmation"], 120,
+                  "the path to wait for confirmation")
+        srv.setblocking(False)
+        with contextlib.suppress(BlockingIOError):
+            while True:
+                srv.recv(200)  # drop what was sent before the wait
+        srv.settimeout(0.5)
+        pings = 0
+        deadline = time.monotonic() + 1.0
+        while time.monotonic() < deadline:
+            if srv.recv(200) == b"WATCHDOG=1":
+                pings += 1
+        assert pings >= 5, pings
+        assert send_request(sock, {"cmd": "status"})["awaiting_confirmation"] is not None
+        send_request(sock, {"cmd": "reject"})
+        assert d.wait_cycles(1, 60)
+    finally:
+        d.request_stop("test over")
+        t.join(60)
+        srv.close()
     assert not t.is_alive()

@@ -40,3 +40,13 @@ def test_sd_notify_sends_datagrams(tmp_path, monkeypatch):
     assert watchdog_interval_s() == 15.0
     monkeypatch.delenv("NOTIFY_SOCKET")
     assert notify("READY=1") is False
+
+
+def test_sd_notify_never_blocks_on_a_full_queue(tmp_path, monkeypatch):
+    path = str(tmp_path / "notify.sock")
+    srv = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    srv.bind(path)  # nobody reads: the queue fills up
+    monkeypatch.setenv("NOTIFY_SOCKET", path)
+    sent = [notify("WATCHDOG=1") for _ in range(2000)]
+    assert sent[0] and not all(sent)  # the first ones went, the rest were dropped, no hang
+    srv.close()
