@@ -151,8 +151,9 @@ class Daemon:
                 dropped = len(self._pending)
                 self._pending.clear()
                 cycle = self._cycle
-                self._decision = False if self._awaiting is not None else self._decision
-                self._decided.notify_all()
+                if self._awaiting is not None:  # a path waiting for the operator: that is a no
+                    self._decision = False
+                    self._decided.notify_all()
             if cycle is not None:
                 cycle.request_abort("operator abort (control socket)")
             return {"ok": True, "aborted": cycle is not None, "dropped_requests": dropped}
