@@ -23,17 +23,33 @@ from controller.errors import ConfigError
 pytestmark = pytest.mark.slow
 
 
-@pytest.fixture
-def running(tmp_path):
-    cfg_path = make_cell(tmp_path / "cell")
+@contextlib.contextmanager
+def serving(cfg_path):
+    """An in-process daemon on ``cfg_path``, ready; stopped (and checked stopped) afterwards."""
     d = Daemon(cfg_path)
     t = threading.Thread(target=d.serve, daemon=True)
     t.start()
-    assert d.ready.wait(30), "daemon did not become ready"
-    yield d, load_cell_config(cfg_path)
-    d.request_stop("test over")
-    t.join(60)
+    try:
+        assert d.ready.wait(30), "daemon did not become ready"
+        yield d, load_cell_config(cfg_path)
+    finally:
+        d.request_stop("test over")
+        t.join(60)
     assert not t.is_alive()
+
+
+def confirming_cell(folder):
+    """The simulated cell with a demo job that asks the operator to confirm the weld path."""
+    cfg_path = make_cell(folder)
+    job = cfg_path.parent / "demo-job.toml"
+    job.write_text(job.read_text().replace("confirm = false", "confirm = true"))
+    return cfg_path
+
+
+@pytest.fixture
+def running(tmp_path):
+    with serving(make_cell(tmp_path / "cell")) as (d, cfg):
+        yield d, cfg
 
 
 def test_status_start_and_counters(running):
@@ -197,15 +213,8 @@ def test_sighup_reload_between_cycles(running):
 
 
 def test_operator_confirms_or_rejects_the_weld_path(tmp_path):
-    cfg_path = make_cell(tmp_path / "cell")
-    job = cfg_path.parent / "demo-job.toml"
-    job.write_text(job.read_text().replace("confirm = false", "confirm = true"))
-    d = Daemon(cfg_path)
-    t = threading.Thread(target=d.serve, daemon=True)
-    t.start()
-    sock = load_cell_config(cfg_path).control.socket
-    try:
-        assert d.ready.wait(30), "daemon did not become ready"
+    with serving(confirming_cell(tmp_path / "cell")) as (d, cfg):
+        sock = cfg.control.socket
         r = send_request(sock, {"cmd": "confirm"})
         assert not r["ok"] and "no weld path is waiting" in r["error"]
 
@@ -228,10 +237,6 @@ def test_operator_confirms_or_rejects_the_weld_path(tmp_path):
         assert d.wait_cycles(2, 120)
         assert d.status()["last_cycle"]["status"] == "done"
         assert d.status()["awaiting_confirmation"] is None
-    finally:
-        d.request_stop("test over")
-        t.join(60)
-    assert not t.is_alive()
 
 
 def test_watchdog_keeps_pinging_through_a_long_state_of_a_cycle(tmp_path, monkeypatch):
@@ -243,15 +248,8 @@ def test_watchdog_keeps_pinging_through_a_long_state_of_a_cycle(tmp_path, monkey
     monkeypatch.setenv("NOTIFY_SOCKET", notify_path)
     monkeypatch.setenv("WATCHDOG_USEC", "200000")  # ping every 0.1 s
     monkeypatch.setenv("WATCHDOG_PID", str(os.getpid()))
-    cfg_path = make_cell(tmp_path / "cell")
-    job = cfg_path.parent / "demo-job.toml"
-    job.write_text(job.read_text().replace("confirm = false", "confirm = true"))
-    d = Daemon(cfg_path)
-    t = threading.Thread(target=d.serve, daemon=True)
-    t.start()
-    sock = load_cell_config(cfg_path).control.socket
-    try:
-        assert d.ready.wait(30), "daemon did not become ready"
+    with contextlib.closing(srv), serving(confirming_cell(tmp_path / "cell")) as (d, cfg):
+        sock = cfg.control.socket
         send_request(sock, {"cmd": "start", "job": "demo"})
         _wait_for(lambda: send_request(sock, {"cmd": "status"})["awaiting_confirmation"], 120,
                   "the path to wait for confirmation")
@@ -269,8 +267,3 @@ def test_watchdog_keeps_pinging_through_a_long_state_of_a_cycle(tmp_path, monkey
         assert send_request(sock, {"cmd": "status"})["awaiting_confirmation"] is not None
         send_request(sock, {"cmd": "reject"})
         assert d.wait_cycles(1, 60)
-    finally:
-        d.request_stop("test over")
-        t.join(60)
-        srv.close()
-    assert not t.is_alive()
