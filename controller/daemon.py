@@ -110,10 +110,10 @@ class Daemon:
         self._awaiting: dict[str, Any] | None = None
         self._decision: bool | None = None
         self._decided = threading.Condition(self._lock)
-        # Watchdog: the serve loop checks in between cycles; a running cycle is alive until its
-        # state's own timeout has passed (monotonic seconds; guarded by _lock).
+        # Watchdog: the serve loop checks in between cycles; a long wait that is bounded by its
+        # own timeout (a cycle state, a reconnect backoff) is alive until then (monotonic s).
         self._checked_in = time.monotonic()
-        self._state_deadline = 0.0
+        self._busy_until = 0.0
         self._cycle_timeouts: Any = None
 
     # ------------------------------------------------------------------ control requests
@@ -297,6 +297,7 @@ class Daemon:
                 self.robot_state = f"reconnecting ({err})"
             log.error("robot link: %s; retrying in %.1f s", err, self._backoff)
             self._drop_robot()
+            self._busy(self._backoff)
             self._stop.wait(self._backoff)
             self._backoff = min(self._backoff * 2, self.cfg.robot.reconnect_max_s)
 
@@ -354,6 +355,7 @@ class Daemon:
                 self._cycle = None
                 self._cycle_state = "idle"
                 self._cycle_job = None
+                self._busy_until = 0.0
         key = {"done": "cycles_done", "aborted": "cycles_aborted"}.get(result.status,
                                                                       "cycles_faulted")
         with self._lock:
@@ -406,21 +408,27 @@ class Daemon:
         with self._lock:
             limit = getattr(self._cycle_timeouts, STATE_TIMEOUTS.get(name, ""), None)
             self._cycle_state = name
+        self._busy(limit if limit is not None else 60.0)
+
+    def _busy(self, seconds: float) -> None:
+        """The serve thread enters a wait bounded by ``seconds``: the watchdog keeps pinging."""
+        with self._lock:
             self._checked_in = time.monotonic()
-            self._state_deadline = self._checked_in + (limit if limit is not None else 60.0)
+            self._busy_until = self._checked_in + seconds
 
     def _watchdog(self, interval_s: float) -> None:
         """Ping systemd's watchdog every ``interval_s`` while the daemon is alive.
 
-        Alive: the serve loop checked in within two intervals, or a cycle is inside its current
-        state's timeout (a weld may run for minutes; the cycle enforces that timeout itself, so a
-        cycle stuck beyond it means the daemon hangs, and systemd restarts it).
+        Alive: the serve loop checked in within two intervals, or it is in a wait bounded by its
+        own timeout (:meth:`_busy`): a cycle state (a weld may run for minutes; the cycle enforces
+        that timeout itself, so a cycle stuck beyond it means the daemon hangs, and systemd
+        restarts it) or a reconnect backoff (up to ``reconnect_max_s``).
         """
         while not self._stop.wait(interval_s):
             now = time.monotonic()
             with self._lock:
                 alive = (now - self._checked_in <= 2 * interval_s
-                         or (self._cycle is not None and now <= self._state_deadline + interval_s))
+                         or now <= self._busy_until + interval_s)
             if alive:
                 notify("WATCHDOG=1")
             else:

@@ -50,3 +50,39 @@ def test_sd_notify_never_blocks_on_a_full_queue(tmp_path, monkeypatch):
     sent = [notify("WATCHDOG=1") for _ in range(2000)]
     assert sent[0] and not all(sent)  # the first ones went, the rest were dropped, no hang
     srv.close()
+
+
+def test_watchdog_pings_through_a_bounded_wait_then_stops(tmp_path, monkeypatch):
+    """A wait bounded by its own timeout (a reconnect backoff, a cycle state) keeps the pings
+    going although the serve loop does not check in; past the bound they stop."""
+    import threading
+    import time
+
+    from daemon_harness import make_cell
+
+    from controller.daemon import Daemon
+
+    path = str(tmp_path / "notify.sock")
+    srv = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    srv.bind(path)
+    srv.settimeout(0.5)
+    monkeypatch.setenv("NOTIFY_SOCKET", path)
+    d = Daemon(make_cell(tmp_path / "cell"))  # constructed only: nothing serves, nothing checks in
+    d._busy(0.6)
+    t = threading.Thread(target=d._watchdog, args=(0.05,), daemon=True)
+    t.start()
+    try:
+        t0 = time.monotonic()
+        times = []
+        while time.monotonic() - t0 < 1.2:
+            try:
+                if srv.recv(100) == b"WATCHDOG=1":
+                    times.append(time.monotonic() - t0)
+            except TimeoutError:
+                break
+    finally:
+        d._stop.set()
+        t.join(5)
+        srv.close()
+    assert times and max(times) > 0.4  # well past 2 intervals without a check-in: still alive
+    assert max(times) < 0.8  # the bound (0.6 s + one interval) passed: no more pings
