@@ -51,9 +51,9 @@ from calibration.handeye import (  # noqa: E402
 )
 from calibration.intrinsics import solve_intrinsics  # noqa: E402
 from calibration.targets import detect_board, parse_board_spec  # noqa: E402
-from controller.camera_model import default_camera  # noqa: E402
-from controller.poses import invert, make_pose, pose_error, pose_from_rvec_tvec  # noqa: E402
-from drivers.sim_board import simulate_session  # noqa: E402
+from controller.geometry.camera_model import default_camera  # noqa: E402
+from controller.geometry.poses import invert, make_pose, pose_error, pose_from_rvec_tvec  # noqa: E402
+from drivers.sim.sim_board import simulate_session  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data"
 
@@ -125,14 +125,14 @@ class _NoisyRobot:
     stated pose noise (0.05 mm / 0.01 deg per axis)."""
 
     def __init__(self, joints, seed):
-        from controller.kinematics import irb2400
+        from controller.geometry.kinematics import irb2400
 
         self.robot = irb2400()
         self.j = np.asarray(joints, float)
         self.rng = np.random.default_rng(seed)
 
     def true_pose(self):
-        from controller.kinematics import flange_pose
+        from controller.geometry.kinematics import flange_pose
 
         return flange_pose(self.robot, self.j)
 
@@ -140,7 +140,7 @@ class _NoisyRobot:
         return self.j.copy()
 
     def flange_pose(self):
-        from drivers.sim_board import perturb
+        from drivers.sim.sim_board import perturb
 
         return perturb(self.true_pose(), self.rng, 0.05, 0.01)
 
@@ -154,8 +154,8 @@ def run_auto_teach(seeds, n_views, width, fill=None, tilt=None):
     import io
 
     import calibration.teach as teach
-    from controller.kinematics import irb2400, solve_ik
-    from drivers.sim_board import SimBoardCamera, default_board_pose, default_hand_eye, look_at
+    from controller.geometry.kinematics import irb2400, solve_ik
+    from drivers.sim.sim_board import SimBoardCamera, default_board_pose, default_hand_eye, look_at
 
     cam = default_camera(width, round(width * 1704 / 2272))
     board = parse_board_spec("chessboard:9x6:20")
@@ -295,9 +295,9 @@ def run_dry_run_check(seed=7, n_views=14, tmp=None):
 
     from calibration.calibration_file import save_calibration
     from calibration.teach import calibrate_from_folder
-    from controller.dry_run import run_dry_run
-    from drivers.sim_board import write_view_folder
-    from drivers.sim_cell import default_sim_cell
+    from controller.cell.dry_run import run_dry_run
+    from drivers.sim.sim_board import write_view_folder
+    from drivers.sim.sim_cell import default_sim_cell
 
     cell = default_sim_cell()
     board = parse_board_spec("chessboard:9x6:20")

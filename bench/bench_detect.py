@@ -32,12 +32,12 @@ import cv2
 import numpy as np
 
 from bench.published_detect import published_detect
-from controller.camera_model import default_camera
 from controller.errors import AmbiguousSeam, SeamNotFound
-from controller.poses import rotation_about
-from controller.seam_detect import detect_seam
-from drivers.sim_render import render, suggest_view_poses
-from drivers.sim_scene import KINDS, make_scene
+from controller.geometry.camera_model import default_camera
+from controller.geometry.poses import rotation_about
+from controller.vision.seam_detect import detect_seam
+from drivers.sim.sim_render import render, suggest_view_poses
+from drivers.sim.sim_scene import KINDS, make_scene
 
 CACHE = Path(__file__).resolve().parent / "cache"
 SUCCESS_MAX_PX = 2.0

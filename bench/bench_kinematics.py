@@ -17,9 +17,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from test_kinematics import dh_flange  # noqa: E402
 
-from controller.camera_model import default_camera  # noqa: E402
-from controller.kinematics import flange_pose, inverse_kinematics, irb2400  # noqa: E402
-from controller.poses import look_at, pose_error  # noqa: E402
+from controller.geometry.camera_model import default_camera  # noqa: E402
+from controller.geometry.kinematics import flange_pose, inverse_kinematics, irb2400  # noqa: E402
+from controller.geometry.poses import look_at, pose_error  # noqa: E402
 
 
 def main() -> int:

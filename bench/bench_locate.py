@@ -35,13 +35,13 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
 from controller.errors import SeamguideError, TriangulationError  # noqa: E402
-from controller.locate import ViewObservation, locate_seam  # noqa: E402
-from controller.poses import invert, make_pose, rotation_about  # noqa: E402
-from controller.seam_detect import detect_seam, detect_seams  # noqa: E402
-from controller.triangulate import PolylineDistance  # noqa: E402
-from drivers.sim_cell import default_sim_cell  # noqa: E402
-from drivers.sim_render import render, suggest_view_poses  # noqa: E402
-from drivers.sim_scene import KINDS, make_scene  # noqa: E402
+from controller.geometry.poses import invert, make_pose, rotation_about  # noqa: E402
+from controller.stereo.locate import ViewObservation, locate_seam  # noqa: E402
+from controller.stereo.triangulate import PolylineDistance  # noqa: E402
+from controller.vision.seam_detect import detect_seam, detect_seams  # noqa: E402
+from drivers.sim.sim_cell import default_sim_cell  # noqa: E402
+from drivers.sim.sim_render import render, suggest_view_poses  # noqa: E402
+from drivers.sim.sim_scene import KINDS, make_scene  # noqa: E402
 
 CACHE = ROOT / "bench" / "cache" / "stereo"
 OUT = ROOT / "bench" / "out"
@@ -57,9 +57,9 @@ def _cache_paths(kind: str, seed: int, difficulty: str) -> tuple[Path, Path, Pat
 
 
 def view_poses(scene, cell, roll_deg: float | None = None) -> list[np.ndarray]:
-    """The product's two views (controller/dry_run.py): across the seam, view 2 rolled."""
-    from controller.dry_run import VIEW2_ROLL_DEG
-    from controller.poses import rotation_about
+    """The product's two views (controller/cell/dry_run.py): across the seam, view 2 rolled."""
+    from controller.cell.dry_run import VIEW2_ROLL_DEG
+    from controller.geometry.poses import rotation_about
 
     poses = suggest_view_poses(scene, cell.camera)
     roll = VIEW2_ROLL_DEG if roll_deg is None else roll_deg
@@ -70,7 +70,7 @@ def view_poses(scene, cell, roll_deg: float | None = None) -> list[np.ndarray]:
 def third_view(scene, standoff_mm: float = 350.0, offset_mm: float = 100.0) -> np.ndarray:
     """A verification view displaced *along* the seam (the other two are displaced across it), so
     that the three flange rotations are not about one common axis."""
-    from controller.poses import look_at
+    from controller.geometry.poses import look_at
 
     P = scene.seam_points_mm
     centre = P[len(P) // 2]
@@ -217,7 +217,7 @@ def perturbed(cell, kind: str, rng):
     if kind == "handeye_0.1deg":
         return cam, He @ make_pose(rotation_about(rng.normal(size=3), np.radians(0.1)))
     if kind == "focal_0.2pct":
-        from controller.camera_model import CameraModel
+        from controller.geometry.camera_model import CameraModel
 
         K = cam.K.copy()
         K[0, 0] *= 1.002
@@ -237,7 +237,7 @@ def gross_error_catch_rate(cell, n_scenes: int = 20, trials: int = 3) -> dict[st
     then equivalent to moving that axis, and the reconstruction shifts rigidly: nothing in the
     images can show it. Rolling view 2 about its optical axis breaks the symmetry.
     """
-    from controller.dry_run import VIEW2_ROLL_DEG
+    from controller.cell.dry_run import VIEW2_ROLL_DEG
 
     layouts = {"2 views across the seam, same roll": (0.0, False),
                f"2 views, view 2 rolled {VIEW2_ROLL_DEG:.0f} deg (the default)":
@@ -309,7 +309,7 @@ def sensitivity(pairs, cell, kinds=("handeye_0.3mm", "handeye_0.1deg", "focal_0.
 
 
 def plot_example(cell):
-    from controller.seam_plot import seam_plot_png
+    from controller.cell.seam_plot import seam_plot_png
 
     kind, seed, diff = "nonplanar", 1001, "medium"
     pairs = [(k, s, diff) for k, s in scene_list(diff, 8) if k == "nonplanar"]

@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.camera_model import CameraModel
-from controller.poses import invert
+from controller.geometry.camera_model import CameraModel
+from controller.geometry.poses import invert
 
 F64 = NDArray[np.float64]
 

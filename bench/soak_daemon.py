@@ -25,9 +25,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
-import controller.daemon as daemon_mod  # noqa: E402
-from controller.control_socket import send_request  # noqa: E402
-from controller.cycle_record import read_record  # noqa: E402
+import controller.cell.daemon as daemon_mod  # noqa: E402
+from controller.cell.control_socket import send_request  # noqa: E402
+from controller.cell.cycle_record import read_record  # noqa: E402
 from controller.errors import CameraError  # noqa: E402
 
 FAULTS = ("none", "controller_error_mid_weld", "link_corruption", "link_disconnect",

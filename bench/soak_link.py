@@ -122,8 +122,8 @@ def run_weld_cycle(baud: int = 0, points: int = 100, vary_orientation: bool = Fa
     ``vary_orientation`` the torch tilts a little at every point, so no orientation repeats (the
     worst case; a constant torch orientation goes as ``XR``).
     """
-    from controller.kinematics import flange_pose, irb2400
-    from controller.poses import make_pose, rotation_about
+    from controller.geometry.kinematics import flange_pose, irb2400
+    from controller.geometry.poses import make_pose, rotation_about
 
     tool = make_pose(t_mm=[0.0, 0.0, 300.0])
     start = flange_pose(irb2400(), [0.0, 10.0, 0.0, 0.0, 60.0, 0.0]) @ tool

@@ -29,11 +29,11 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from controller.camera_model import CameraModel
 from controller.errors import CalibrationError, InputError
+from controller.geometry.camera_model import CameraModel
+from controller.geometry.poses import check_quat_wxyz as _check_quat
+from controller.geometry.poses import make_pose, pos_quat_from_pose, quat_wxyz_to_matrix
 from controller.jsonio import atomic_write_text
-from controller.poses import check_quat_wxyz as _check_quat
-from controller.poses import make_pose, pos_quat_from_pose, quat_wxyz_to_matrix
 
 F64 = NDArray[np.float64]
 

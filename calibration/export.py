@@ -30,7 +30,7 @@ import yaml
 
 from calibration.calibration_file import Calibration
 from controller.errors import CalibrationError, ConfigError
-from controller.poses import Pose, pos_quat_from_pose, pose_from_pos_quat
+from controller.geometry.poses import Pose, pos_quat_from_pose, pose_from_pos_quat
 
 FORMATS = ("easy_handeye", "tf", "matrix", "abb_tooldata", "view_camera_pose")
 
@@ -82,7 +82,7 @@ def export_hand_eye(calib: Calibration, fmt: str, *, base_frame: str = "base_lin
     if fmt == "view_camera_pose":
         import json
 
-        from controller.poses import pose_to_dict
+        from controller.geometry.poses import pose_to_dict
 
         if on_hand:
             raise CalibrationError("view_camera_pose is for a camera fixed in the cell; this "

@@ -43,9 +43,9 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 from threadpoolctl import threadpool_limits
 
-from controller.camera_model import CameraModel
 from controller.errors import CalibrationError
-from controller.poses import Pose, invert, make_pose, pose_error, pose_from_rvec_tvec
+from controller.geometry.camera_model import CameraModel
+from controller.geometry.poses import Pose, invert, make_pose, pose_error, pose_from_rvec_tvec
 
 F64 = NDArray[np.float64]
 
@@ -123,7 +123,7 @@ class HandEyeResult:
 
     def report(self) -> dict[str, Any]:
         """JSON-ready summary of the solution and its quality."""
-        from controller.poses import pose_to_dict
+        from controller.geometry.poses import pose_to_dict
 
         out: dict[str, Any] = {
             "mode": "eye-to-hand" if self.eye_to_hand else "eye-in-hand",

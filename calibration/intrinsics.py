@@ -24,9 +24,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.camera_model import CameraModel
 from controller.errors import CalibrationError
-from controller.poses import Pose, pose_from_rvec_tvec
+from controller.geometry.camera_model import CameraModel
+from controller.geometry.poses import Pose, pose_from_rvec_tvec
 
 F64 = NDArray[np.float64]
 

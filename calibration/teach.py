@@ -36,7 +36,7 @@ from calibration.handeye import HandEyeResult, Observation, solve_hand_eye, view
 from calibration.intrinsics import IntrinsicsResult, image_coverage, solve_intrinsics
 from calibration.targets import BoardSpec, Detection, detect_board, parse_board_spec
 from controller.errors import CalibrationError, InputError, ReachabilityError
-from controller.poses import Pose, make_pose, pose_to_dict, rotation_about
+from controller.geometry.poses import Pose, make_pose, pose_to_dict, rotation_about
 
 F64 = NDArray[np.float64]
 
@@ -233,7 +233,7 @@ def _validate(he: HandEyeResult, found: Sequence[ViewRecord], A: Sequence[Pose],
 
 
 def _pose_delta(a: Pose, b: Pose) -> tuple[float, float]:
-    from controller.poses import pose_error
+    from controller.geometry.poses import pose_error
 
     return pose_error(a, b)
 
@@ -335,7 +335,7 @@ def load_view_records(folder: str | Path, board: BoardSpec) -> tuple[list[ViewRe
     it and the key), a view gives ``camera_pose`` (hand-eye needs the robot's flange pose or
     joints), or the images differ in size.
     """
-    from controller.view_file import load_view
+    from controller.geometry.view_file import load_view
 
     files = sorted(Path(folder).glob("*.json"))
     if not files:
@@ -382,7 +382,7 @@ def calibrate_from_folder(folder: str | Path, board_spec: str | BoardSpec,
 # ---------------------------------------------------------------------------------------------
 def _reachable(T: Pose, joints_near: F64, lo: F64, hi: F64) -> F64 | None:
     """Joints (deg) reaching flange pose ``T`` nearest ``joints_near``, or None (IK, box)."""
-    from controller.kinematics import inverse_kinematics, irb2400
+    from controller.geometry.kinematics import inverse_kinematics, irb2400
 
     if np.any(T[:3, 3] < lo) or np.any(T[:3, 3] > hi):
         return None
@@ -572,7 +572,7 @@ def run_teach(robot: TeachRobot, camera: TeachCamera, board: BoardSpec, *,
     ``calibrate_from_folder``. Raises :class:`CalibrationError` when aborted (nothing is
     returned, nothing saved) or when the solve fails.
     """
-    from controller.view_file import view_to_dict
+    from controller.geometry.view_file import view_to_dict
 
     out = sys.stderr if out is None else out
     views: list[ViewRecord] = []

@@ -4,9 +4,9 @@
 (greyscale (H, W) or BGR (H, W, 3), as OpenCV reads them). Schemes:
 
 - ``sim:?kind=arc&seed=3&difficulty=medium`` renders the simulated workpiece
-  (:mod:`drivers.sim_render`) from the pose given by ``pose_source()`` at each grab. Keyword
+  (:mod:`drivers.sim.sim_render`) from the pose given by ``pose_source()`` at each grab. Keyword
   arguments: ``pose_source`` (callable returning ``T_base_cam``, required), ``scene`` (a
-  :class:`~drivers.sim_scene.Scene`; when absent one is made from ``kind``/``seed``/
+  :class:`~drivers.sim.sim_scene.Scene`; when absent one is made from ``kind``/``seed``/
   ``difficulty`` in the URL), ``camera_model`` (default ``default_camera()``). URL options:
   ``kind``, ``seed``, ``difficulty``, ``ss`` (supersampling). Frame n uses noise seed
   ``seed + n``: the same URL and poses give the same frames.
@@ -75,8 +75,8 @@ class SimCamera(Camera):
 
     def __init__(self, url: str, *, pose_source: Callable[[], NDArray[np.float64]] | None = None,
                  scene: Any = None, camera_model: Any = None) -> None:
-        from controller.camera_model import default_camera
-        from drivers.sim_scene import make_scene
+        from controller.geometry.camera_model import default_camera
+        from drivers.sim.sim_scene import make_scene
 
         self.url = url
         _, opts = _split(url, "sim")
@@ -98,12 +98,13 @@ class SimCamera(Camera):
         self._pose_source = pose_source
         self._frames = 0
         self._closed = False
-        #: Ground truth of the last frame (a drivers.sim_render.Rendered), for tests and dry runs.
+        #: Ground truth of the last frame (a drivers.sim.sim_render.Rendered), for tests and dry
+        #: runs.
         self.last: Any = None
 
     def grab(self) -> NDArray[np.uint8]:
         """Render one frame from the current pose; raises :class:`CameraError` when closed."""
-        from drivers.sim_render import render
+        from drivers.sim.sim_render import render
 
         if self._closed:
             raise CameraError(f"camera {self.url}: grab after close")

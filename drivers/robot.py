@@ -3,7 +3,8 @@
 The controller only sees :class:`Robot`; it cannot tell the mock from the real controller. Robots
 are chosen by URL through one explicit registry (:func:`open_robot`):
 
-* ``mock://?seed=7&drop=0.01&...``: an in-process :class:`~drivers.mock_controller.MockController`
+* ``mock://?seed=7&drop=0.01&...``: an in-process
+:class:`~drivers.mock.mock_controller.MockController`
   served on a real pseudo-terminal and driven by the same client as the real robot; the mock
   object is reachable as ``robot.mock`` (for tests and the simulated camera).
 * anything else (``/dev/ttyS0``, ``/dev/pts/N``, a pty symlink, ``socket://host:port``,
@@ -27,8 +28,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from controller.errors import ConfigError, InputError, RobotFault, SafetyError
-from controller.kinematics import check_joint_limits, flange_pose, irb2400, solve_ik
-from controller.poses import Pose, check_pose, invert
+from controller.geometry.kinematics import check_joint_limits, flange_pose, irb2400, solve_ik
+from controller.geometry.poses import Pose, check_pose, invert
 
 F64 = NDArray[np.float64]
 
@@ -301,7 +302,7 @@ class Robot(abc.ABC):
 # ---- the registry ---------------------------------------------------------------------------
 
 #: Robot URL schemes handled by seamguide itself (module:function, imported lazily).
-ROBOT_SCHEMES: dict[str, str] = {"mock": "drivers.mock_controller:open_mock_robot"}
+ROBOT_SCHEMES: dict[str, str] = {"mock": "drivers.mock.mock_controller:open_mock_robot"}
 
 
 def serial_schemes() -> list[str]:
@@ -319,7 +320,7 @@ def open_robot(url: str, *, limits: SafetyLimits | None = None,
     ``mock://?opts`` builds an in-process mock controller on a pseudo-terminal; any other URL
     (device path or a pyserial URL) is handed to ``serial_for_url`` untouched. ``limits`` default
     to :class:`SafetyLimits` ``()``; ``timeout_s`` bounds each request. ``link_options`` go to
-    :class:`~drivers.abb_link.AbbRobot` (``ack_timeout_s``, ``retries``, ``baudrate``, ...).
+    :class:`~drivers.abb.abb_link.AbbRobot` (``ack_timeout_s``, ``retries``, ``baudrate``, ...).
     Raises :class:`ConfigError` for an unknown scheme (listing the known ones) or mock option.
     """
     if not isinstance(url, str) or not url:
@@ -336,6 +337,6 @@ def open_robot(url: str, *, limits: SafetyLimits | None = None,
         if scheme not in known:
             raise ConfigError(f"robot URL {url!r}: unknown scheme {scheme!r}; known schemes: "
                               f"{', '.join(s + '://' for s in known)} or a device path")
-    from drivers.abb_link import AbbRobot
+    from drivers.abb.abb_link import AbbRobot
 
     return AbbRobot(url, limits=lim, timeout_s=timeout_s, **link_options)

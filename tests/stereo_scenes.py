@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from controller.camera_model import default_camera
-from controller.locate import ViewObservation
-from controller.poses import look_at
+from controller.geometry.camera_model import default_camera
+from controller.geometry.poses import look_at
+from controller.stereo.locate import ViewObservation
 
 CENTRE = np.array([1000.0, 0.0, 300.0])
 

@@ -12,9 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from controller.errors import ProtocolError
-from controller.kinematics import flange_pose, irb2400
-from controller.poses import make_pose, pos_quat_from_pose, pose_error, pose_from_pos_quat
-from drivers import abb_codec as codec
+from controller.geometry.kinematics import flange_pose, irb2400
+from controller.geometry.poses import make_pose, pos_quat_from_pose, pose_error, pose_from_pos_quat
+from drivers.abb import abb_codec as codec
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "protocol.md"
 
@@ -102,9 +102,9 @@ def test_every_message_fits_80_characters():
 
 def test_mock_error_texts_fit():
     # Every error text the mock writes, with the longest numbers in it.
-    # the mock controller is split into drivers/mock_*.py modules: read them all
+    # the mock controller is split into drivers/mock/mock_*.py modules: read them all
     src = "".join(f.read_text() for f in sorted(
-        (Path(__file__).resolve().parents[1] / "drivers").glob("mock_*.py")))
+        (Path(__file__).resolve().parents[1] / "drivers" / "mock").glob("mock_*.py")))
     for text in re.findall(r'error_body\(\d+, f?"([^"]*)"', src):
         filled = re.sub(r"\{[^}]*\}", "9999", text)
         line = codec.encode_frame("A", 99, codec.error_body(99, filled))

@@ -17,11 +17,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from controller.errors import LinkError, RobotFault, SafetyError
-from controller.kinematics import flange_pose, irb2400
-from controller.poses import make_pose, pose_error
-from drivers import abb_codec as codec
-from drivers.abb_link import AbbLink
-from drivers.mock_controller import MockController
+from controller.geometry.kinematics import flange_pose, irb2400
+from controller.geometry.poses import make_pose, pose_error
+from drivers.abb import abb_codec as codec
+from drivers.abb.abb_link import AbbLink
+from drivers.mock.mock_controller import MockController
 from drivers.robot import MotionTimeout, open_robot
 
 TOOL = make_pose(t_mm=[0.0, 0.0, 300.0])
@@ -169,7 +169,7 @@ def test_weld_progress_and_fault_at_point_n():
 
 
 def test_path_orientations_arrive_whether_repeated_or_not():
-    from controller.poses import rotation_about
+    from controller.geometry.poses import rotation_about
 
     with open_robot("mock://") as robot:
         robot.set_tool(TOOL)

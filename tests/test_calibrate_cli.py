@@ -10,11 +10,11 @@ from shared_data import CHESSBOARD, needs
 from calibration.calibration_file import load_calibration
 from calibration.export import export_hand_eye, pose_from_easy_handeye
 from calibration.targets import parse_board_spec
-from controller.camera_model import default_camera
 from controller.cli import main
 from controller.errors import CalibrationError
-from controller.poses import pose_error
-from drivers.sim_board import simulate_session, write_view_folder
+from controller.geometry.camera_model import default_camera
+from controller.geometry.poses import pose_error
+from drivers.sim.sim_board import simulate_session, write_view_folder
 
 DATA = CHESSBOARD
 CAM = default_camera(640, 480)
@@ -142,7 +142,7 @@ def test_bad_arguments(tmp_path, capsys):
 
 def test_export_formats():
     from calibration.calibration_file import Calibration
-    from controller.poses import make_pose, rotation_about
+    from controller.geometry.poses import make_pose, rotation_about
 
     calib = Calibration(CAM, make_pose(rotation_about([1, 2, 3], 0.4), [95.0, -8.0, 60.0]))
     tf = export_hand_eye(calib, "tf").split()
@@ -161,9 +161,9 @@ def test_export_formats():
 @pytest.mark.slow
 def test_teach_cli_mock_robot_auto(tmp_path, capsys):
     """The whole routine from the command line: mock robot on a pty, simulated board camera."""
-    from controller.kinematics import irb2400, solve_ik
-    from controller.poses import invert
-    from drivers.sim_board import default_board_pose, default_hand_eye, look_at
+    from controller.geometry.kinematics import irb2400, solve_ik
+    from controller.geometry.poses import invert
+    from drivers.sim.sim_board import default_board_pose, default_hand_eye, look_at
 
     Y = default_board_pose(BOARD)
     centre = Y[:3, :3] @ BOARD.object_points().mean(axis=0) + Y[:3, 3]

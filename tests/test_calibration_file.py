@@ -3,9 +3,9 @@ import pytest
 import yaml
 
 from calibration.calibration_file import Calibration, load_calibration, save_calibration
-from controller.camera_model import default_camera
 from controller.errors import CalibrationError
-from controller.poses import make_pose, pose_error, rotation_about
+from controller.geometry.camera_model import default_camera
+from controller.geometry.poses import make_pose, pose_error, rotation_about
 
 
 @pytest.fixture

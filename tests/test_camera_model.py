@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from controller.camera_model import CameraModel, default_camera
 from controller.errors import CalibrationError
-from controller.poses import make_pose, rotation_about
+from controller.geometry.camera_model import CameraModel, default_camera
+from controller.geometry.poses import make_pose, rotation_about
 
 
 def grid(cam, step=16):

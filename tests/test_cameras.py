@@ -2,11 +2,11 @@ import cv2
 import numpy as np
 import pytest
 
-from controller.camera_model import default_camera
 from controller.errors import CameraError, ConfigError
+from controller.geometry.camera_model import default_camera
 from drivers.cameras import CAMERA_SCHEMES, Camera, open_camera
-from drivers.sim_render import suggest_view_poses
-from drivers.sim_scene import make_scene
+from drivers.sim.sim_render import suggest_view_poses
+from drivers.sim.sim_scene import make_scene
 
 CAM = default_camera().scaled(0.25)
 SCENE = make_scene("straight", 1, "easy")

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from calibration.calibration_file import Calibration, save_calibration
+from controller.cell.dry_run import view_joints
 from controller.cli import main
-from controller.dry_run import view_joints
-from controller.kinematics import flange_pose, irb2400
-from controller.triangulate import PolylineDistance
-from controller.view_file import view_to_dict
-from drivers.sim_cell import default_sim_cell
-from drivers.sim_render import render
-from drivers.sim_scene import make_scene
+from controller.geometry.kinematics import flange_pose, irb2400
+from controller.geometry.view_file import view_to_dict
+from controller.stereo.triangulate import PolylineDistance
+from drivers.sim.sim_cell import default_sim_cell
+from drivers.sim.sim_render import render
+from drivers.sim.sim_scene import make_scene
 
 pytestmark = pytest.mark.slow
 

@@ -11,10 +11,10 @@ import pytest
 from shared_data import CHESSBOARD, needs
 
 from calibration.calibration_file import Calibration
-from controller.cycle_record import read_record
-from controller.dry_run import SimRig, run_dry_run
+from controller.cell.cycle_record import read_record
+from controller.cell.dry_run import SimRig, run_dry_run
 from controller.errors import CameraError
-from controller.poses import make_pose
+from controller.geometry.poses import make_pose
 
 pytestmark = pytest.mark.slow
 DATA = CHESSBOARD
@@ -56,7 +56,7 @@ def test_good_cycle_welds_within_a_third_of_a_millimetre(tmp_path):
 def test_views_rolled_alike_are_warned_about_in_the_record(tmp_path):
     import dataclasses
 
-    from controller.dry_run import view_joints
+    from controller.cell.dry_run import view_joints
 
     with SimRig(speedup=200.0) as rig:
         assert "view_layout_warning" not in read_record(rig.cycle(tmp_path / "a").run()

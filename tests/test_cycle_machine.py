@@ -4,7 +4,7 @@ from pathlib import Path
 import pytest
 from transitions.core import MachineError
 
-from controller.cycle_machine import TRANSITIONS, CycleState, build_machine, mermaid_diagram
+from controller.cell.cycle_machine import TRANSITIONS, CycleState, build_machine, mermaid_diagram
 
 DOC = Path(__file__).parent.parent / "docs" / "cycle.md"
 
@@ -30,7 +30,7 @@ class Model:
 def test_docs_diagram_matches_the_machine():
     text = DOC.read_text()
     block = re.search(r"```mermaid\n(.*?)```", text, re.S).group(1)
-    stale = "docs/cycle.md is stale: run python -m controller.cycle_machine"
+    stale = "docs/cycle.md is stale: run python -m controller.cell.cycle_machine"
     assert block == mermaid_diagram(), stale
 
 

@@ -3,7 +3,7 @@ import json
 import numpy as np
 import pytest
 
-from controller.cycle_record import CycleRecord, mark_interrupted, read_record
+from controller.cell.cycle_record import CycleRecord, mark_interrupted, read_record
 
 
 class FakeClock:

@@ -14,10 +14,10 @@ from pathlib import Path
 import pytest
 from daemon_harness import make_cell
 
-from controller.cell_config import load_cell_config
-from controller.control_socket import exchange, send_request
-from controller.cycle_record import read_record
-from controller.daemon import Daemon
+from controller.cell.cell_config import load_cell_config
+from controller.cell.control_socket import exchange, send_request
+from controller.cell.cycle_record import read_record
+from controller.cell.daemon import Daemon
 from controller.errors import ConfigError
 
 pytestmark = pytest.mark.slow

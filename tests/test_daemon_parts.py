@@ -3,8 +3,8 @@
 import os
 import socket
 
-from controller.cycle_record import CycleRecord, rotate_records
-from controller.sd_notify import notify, watchdog_interval_s
+from controller.cell.cycle_record import CycleRecord, rotate_records
+from controller.cell.sd_notify import notify, watchdog_interval_s
 
 
 def test_rotation_by_age_and_size_keeps_running_records(tmp_path):
@@ -60,7 +60,7 @@ def test_watchdog_pings_through_a_bounded_wait_then_stops(tmp_path, monkeypatch)
 
     from daemon_harness import make_cell
 
-    from controller.daemon import Daemon
+    from controller.cell.daemon import Daemon
 
     path = str(tmp_path / "notify.sock")
     srv = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)

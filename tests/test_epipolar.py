@@ -1,7 +1,12 @@
 import numpy as np
 
-from controller.epipolar import epipolar_lines, match_curves, point_on_polyline, relative_pose
-from controller.poses import look_at
+from controller.geometry.poses import look_at
+from controller.stereo.epipolar import (
+    epipolar_lines,
+    match_curves,
+    point_on_polyline,
+    relative_pose,
+)
 
 
 def setup():

@@ -5,12 +5,12 @@ from pathlib import Path
 import numpy as np
 
 from calibration.calibration_file import load_calibration
-from controller.cell_config import check_config, load_cell_config
-from controller.dry_run import view_joints
-from controller.job import load_job
-from controller.poses import pose_error
-from drivers.sim_cell import default_sim_cell
-from drivers.sim_scene import make_scene
+from controller.cell.cell_config import check_config, load_cell_config
+from controller.cell.dry_run import view_joints
+from controller.cell.job import load_job
+from controller.geometry.poses import pose_error
+from drivers.sim.sim_cell import default_sim_cell
+from drivers.sim.sim_scene import make_scene
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
 
@@ -45,12 +45,12 @@ def test_sim_cell_config_checks():
 def test_views_rolled_alike_are_warned_about(tmp_path):
     import shutil
 
-    from controller.view_geometry import roll_difference_deg, view_layout_warning
+    from controller.stereo.view_geometry import roll_difference_deg, view_layout_warning
 
     cfg = load_cell_config(EXAMPLES / "sim-cell.toml")
     scene = make_scene(cfg.sim.scene, cfg.sim.seed, cfg.sim.difficulty)
     cell = default_sim_cell()
-    from controller.kinematics import flange_pose, irb2400
+    from controller.geometry.kinematics import flange_pose, irb2400
 
     def cams(joints):
         return [flange_pose(irb2400(), j) @ cell.T_flange_cam for j in joints]

@@ -12,10 +12,16 @@ from calibration.handeye import (
     view_residuals,
 )
 from calibration.targets import parse_board_spec
-from controller.camera_model import default_camera
 from controller.errors import CalibrationError
-from controller.poses import invert, make_pose, pose_error, rotation_about, transform_points
-from drivers.sim_board import default_board_pose, default_hand_eye, look_at, perturb
+from controller.geometry.camera_model import default_camera
+from controller.geometry.poses import (
+    invert,
+    make_pose,
+    pose_error,
+    rotation_about,
+    transform_points,
+)
+from drivers.sim.sim_board import default_board_pose, default_hand_eye, look_at, perturb
 
 CAM = default_camera(640, 480)
 BOARD = parse_board_spec("chessboard:9x6:20")
@@ -134,7 +140,7 @@ def test_refine_intrinsics():
     K = CAM.K.copy()
     K[0, 0] *= 1.004
     K[1, 1] *= 1.004
-    from controller.camera_model import CameraModel
+    from controller.geometry.camera_model import CameraModel
 
     wrong = CameraModel(640, 480, K, CAM.dist)
     r = solve_hand_eye(A, obs, wrong, refine_intrinsics=True)

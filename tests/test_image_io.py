@@ -2,9 +2,9 @@ import cv2
 import numpy as np
 import pytest
 
-from controller.camera_model import default_camera
 from controller.errors import InputError
-from controller.image_io import check_image, load_image
+from controller.geometry.camera_model import default_camera
+from controller.vision.image_io import check_image, load_image
 
 
 def _write(path, img):

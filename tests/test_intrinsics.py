@@ -6,9 +6,9 @@ from shared_data import CHESSBOARD, needs
 
 from calibration.intrinsics import image_coverage, solve_intrinsics
 from calibration.targets import detect_board, parse_board_spec
-from controller.camera_model import default_camera
 from controller.errors import CalibrationError
-from controller.poses import make_pose, rotation_about, transform_points
+from controller.geometry.camera_model import default_camera
+from controller.geometry.poses import make_pose, rotation_about, transform_points
 
 DATA = CHESSBOARD
 CAM = default_camera(640, 480)

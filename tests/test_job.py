@@ -3,8 +3,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from controller.cell.job import load_job, teach_view
 from controller.errors import ConfigError
-from controller.job import load_job, teach_view
 
 EXAMPLE = Path(__file__).parent.parent / "examples" / "demo-job.toml"
 

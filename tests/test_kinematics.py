@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from controller.errors import InputError, JointLimitError, PoseMismatchError, ReachabilityError
-from controller.kinematics import (
+from controller.geometry.kinematics import (
     check_pose_consistency,
     controller_to_urdf,
     flange_pose,
@@ -13,7 +13,7 @@ from controller.kinematics import (
     solve_ik,
     urdf_to_controller,
 )
-from controller.poses import make_pose, pose_error, pose_to_dict, translation_error_mm
+from controller.geometry.poses import make_pose, pose_error, pose_to_dict, translation_error_mm
 
 
 def dh(theta, d, a, alpha):

@@ -3,9 +3,9 @@ import pytest
 from stereo_scenes import camera_poses, observe, seam_curve
 
 from controller.errors import InputError, TriangulationError
-from controller.locate import QualityLimits, ViewObservation, locate_seam
-from controller.poses import make_pose, rotation_about
-from controller.triangulate import PolylineDistance
+from controller.geometry.poses import make_pose, rotation_about
+from controller.stereo.locate import QualityLimits, ViewObservation, locate_seam
+from controller.stereo.triangulate import PolylineDistance
 
 
 def error_to_truth(P, seam):

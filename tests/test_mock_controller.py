@@ -14,10 +14,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from controller.errors import ConfigError
-from controller.kinematics import flange_pose, irb2400
-from controller.poses import make_pose, pos_quat_from_pose
-from drivers import abb_codec as codec
-from drivers.mock_controller import MockController, parse_mock_options
+from controller.geometry.kinematics import flange_pose, irb2400
+from controller.geometry.poses import make_pose, pos_quat_from_pose
+from drivers.abb import abb_codec as codec
+from drivers.mock.mock_controller import MockController, parse_mock_options
 
 
 class Wire:
@@ -260,7 +260,8 @@ def test_served_on_a_pty_with_a_stable_symlink(tmp_path):
 
 # ---- the RAPID module and the mock agree ---------------------------------------------------
 
-RAPID = (Path(__file__).resolve().parents[1] / "drivers" / "rapid" / "SGSERVER.mod").read_text()
+RAPID = (Path(__file__).resolve().parents[1] / "drivers" / "abb" / "rapid"
+         / "SGSERVER.mod").read_text()
 
 
 def _rapid_string(name: str) -> str:
@@ -298,9 +299,9 @@ def test_rapid_and_mock_serve_the_same_requests_and_errors():
     rapid_cmds = set(re.findall(r'c = "([A-Z]{2})"', RAPID))
     mock_cmds = {n[len("_cmd_"):] for n in dir(MockController) if n.startswith("_cmd_")}
     assert rapid_cmds == mock_cmds
-    # the mock controller is split into drivers/mock_*.py modules: read them all
+    # the mock controller is split into drivers/mock/mock_*.py modules: read them all
     src = "".join(f.read_text() for f in sorted(
-        (Path(__file__).resolve().parents[1] / "drivers").glob("mock_*.py")))
+        (Path(__file__).resolve().parents[1] / "drivers" / "mock").glob("mock_*.py")))
     rapid_codes = {int(c) for c in re.findall(r'"ER (\d\d) ', RAPID)}
     mock_codes = {int(c) for c in re.findall(r"error_body\((\d\d),", src)}
     assert rapid_codes == mock_codes

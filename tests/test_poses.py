@@ -5,7 +5,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from controller.errors import InputError
-from controller.poses import (
+from controller.geometry.poses import (
     canonical_quat_wxyz,
     check_pose,
     check_quat_wxyz,

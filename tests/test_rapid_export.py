@@ -5,11 +5,11 @@ import pytest
 from stereo_scenes import seam_curve
 
 from controller.errors import ConfigError
-from controller.kinematics import irb2400
-from controller.poses import pose_error, pose_from_pos_quat
-from controller.rapid_export import rapid_module
-from controller.seam_curve import resample_curve
-from controller.weld_path import plan_weld
+from controller.geometry.kinematics import irb2400
+from controller.geometry.poses import pose_error, pose_from_pos_quat
+from controller.path.rapid_export import rapid_module
+from controller.path.weld_path import plan_weld
+from controller.stereo.seam_curve import resample_curve
 
 
 @pytest.fixture(scope="module")

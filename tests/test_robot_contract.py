@@ -7,9 +7,9 @@ from __future__ import annotations
 import pytest
 
 from controller.errors import ConfigError, JointLimitError, ReachabilityError, SafetyError
-from controller.kinematics import check_pose_consistency, flange_pose, irb2400
-from controller.poses import make_pose
-from drivers.mock_controller import MockController
+from controller.geometry.kinematics import check_pose_consistency, flange_pose, irb2400
+from controller.geometry.poses import make_pose
+from drivers.mock.mock_controller import MockController
 from drivers.robot import Robot, SafetyLimits, open_robot
 
 TOOL = make_pose(t_mm=[0.0, 0.0, 250.0])

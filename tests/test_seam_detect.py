@@ -7,12 +7,12 @@ import pytest
 from shared_data import CHESSBOARD, needs
 
 from calibration.calibration_file import Calibration, save_calibration
-from controller.camera_model import default_camera
 from controller.cli import main
 from controller.errors import AmbiguousSeam, InputError, SeamNotFound
-from controller.seam_detect import DetectParams, detect_seam
-from drivers.sim_render import render, suggest_view_poses
-from drivers.sim_scene import make_scene
+from controller.geometry.camera_model import default_camera
+from controller.vision.seam_detect import DetectParams, detect_seam
+from drivers.sim.sim_render import render, suggest_view_poses
+from drivers.sim.sim_scene import make_scene
 
 # Half-size images (1136x852) seen from 250 mm: the gap is as many pixels wide as in the full
 # 2272x1704 image from 350 mm, and a render takes a fraction of a second.
@@ -162,11 +162,12 @@ def test_cli_detect(tmp_path, cases, capsys):
 
 
 def test_an_end_between_two_equally_supported_border_lines_is_unsure():
-    from controller.seam_ends import _border_line
+    from controller.vision.seam_ends import _border_line
 
     offs = (-9.7, -4.9, 0.0, 4.9, 9.7)
     # Five lines agree on one border: sure.
-    assert _border_line(offs, [[3.0], [3.0], [3.0], [3.0], [3.0]]) == (3.0, False)
+    k, unsure = _border_line(offs, [[3.0], [3.0], [3.0], [3.0], [3.0]])
+    assert k == pytest.approx(3.0) and not unsure
     # Two lines see a border at 15.9 px, the centreline and one of them another at 11.4 px (a
     # mark meeting the seam at the border): the inner one is taken, but it is unsure.
     k, unsure = _border_line(offs, [[15.9], [15.9], [11.4], [], []])
@@ -179,8 +180,8 @@ def test_an_end_between_two_equally_supported_border_lines_is_unsure():
 def test_pieces_of_a_faint_gap_are_joined_but_not_a_branch():
     """A faint gap breaks into pieces shorter than a seam: pieces that continue each other are
     joined across a short hole (even with a small sideways step), a piece at an angle is not."""
-    from controller.seam_coarse import _join_candidates
-    from controller.seam_params import Candidate
+    from controller.vision.seam_coarse import _join_candidates
+    from controller.vision.seam_params import Candidate
 
     def piece(p0, p1):
         t = np.linspace(0.0, 1.0, 40)[:, None]
@@ -197,7 +198,7 @@ def test_pieces_of_a_faint_gap_are_joined_but_not_a_branch():
 
 
 def test_several_views_at_once_match_one_by_one_and_raise_in_order(cases):
-    from controller.seam_detect import detect_seams
+    from controller.vision.seam_detect import detect_seams
 
     images = [cases["arc"].image, cases["s_curve"].image]
     together = detect_seams(images)

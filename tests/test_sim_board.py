@@ -2,10 +2,10 @@ import numpy as np
 import pytest
 
 from calibration.targets import parse_board_spec
-from controller.camera_model import default_camera
-from controller.kinematics import flange_pose, irb2400
-from controller.poses import invert, make_pose, pose_error
-from drivers.sim_board import (
+from controller.geometry.camera_model import default_camera
+from controller.geometry.kinematics import flange_pose, irb2400
+from controller.geometry.poses import invert, make_pose, pose_error
+from drivers.sim.sim_board import (
     BLACK,
     TABLE,
     WHITE,
@@ -99,7 +99,7 @@ def test_sim_camera_renders_at_robot_pose():
 
 
 def test_write_view_folder(tmp_path):
-    from controller.view_file import load_view
+    from controller.geometry.view_file import load_view
 
     s = simulate_session(CAM, BOARD, n_views=2, seed=3)
     files = write_view_folder(s, tmp_path, use_joints=True)

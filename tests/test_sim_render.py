@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-from controller.camera_model import default_camera
 from controller.errors import ConfigError
-from drivers.sim_render import GAMMA, render, suggest_view_poses
-from drivers.sim_scene import make_scene
+from controller.geometry.camera_model import default_camera
+from drivers.sim.sim_render import GAMMA, render, suggest_view_poses
+from drivers.sim.sim_scene import make_scene
 
 CAM = default_camera().scaled(0.25)  # 568x426: fast
 

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from controller.errors import ConfigError
-from drivers.sim_scene import DEFAULT_CENTRE_MM, DIFFICULTIES, KINDS, make_scene
+from drivers.sim.sim_scene import DEFAULT_CENTRE_MM, DIFFICULTIES, KINDS, make_scene
 
 
 def arc_length(P):

@@ -5,10 +5,10 @@ import pytest
 from shared_data import CHESSBOARD, needs
 
 from calibration.targets import BoardSpec, detect_board, parse_board_spec
-from controller.camera_model import default_camera
 from controller.errors import ConfigError, InputError
-from controller.poses import make_pose, rotation_about
-from drivers.sim_board import render_board, true_corners
+from controller.geometry.camera_model import default_camera
+from controller.geometry.poses import make_pose, rotation_about
+from drivers.sim.sim_board import render_board, true_corners
 
 DATA = CHESSBOARD
 CAM = default_camera(640, 480)

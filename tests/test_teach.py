@@ -15,11 +15,11 @@ from calibration.teach import (
     run_teach,
     solve_views,
 )
-from controller.camera_model import default_camera
 from controller.errors import CalibrationError
-from controller.kinematics import flange_pose, irb2400, solve_ik
-from controller.poses import invert, make_pose, pose_error, rotation_about
-from drivers.sim_board import (
+from controller.geometry.camera_model import default_camera
+from controller.geometry.kinematics import flange_pose, irb2400, solve_ik
+from controller.geometry.poses import invert, make_pose, pose_error, rotation_about
+from drivers.sim.sim_board import (
     SimBoardCamera,
     default_board_pose,
     default_hand_eye,
@@ -203,7 +203,7 @@ def test_eye_to_hand_folder_writes_camera_pose(tmp_path):
     import json
 
     from calibration.export import export_hand_eye
-    from controller.poses import pose_from_dict
+    from controller.geometry.poses import pose_from_dict
 
     doc = json.loads(export_hand_eye(calib, "view_camera_pose"))
     assert pose_error(pose_from_dict(doc["camera_pose"]), calib.T_base_cam)[0] < 1e-5

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from controller.errors import InputError
-from controller.kinematics import flange_pose, irb2400
-from controller.poses import make_pose, pose_error, rotation_about
-from controller.view_file import load_view, view_to_dict
+from controller.geometry.kinematics import flange_pose, irb2400
+from controller.geometry.poses import make_pose, pose_error, rotation_about
+from controller.geometry.view_file import load_view, view_to_dict
 
 
 @pytest.fixture

@@ -3,10 +3,10 @@ import pytest
 from stereo_scenes import seam_curve
 
 from controller.errors import ConfigError, ReachabilityError
-from controller.kinematics import flange_pose, irb2400
-from controller.poses import invert, pose_error
-from controller.seam_curve import resample_curve
-from controller.weld_path import WeldParams, WorkspaceBox, plan_weld
+from controller.geometry.kinematics import flange_pose, irb2400
+from controller.geometry.poses import invert, pose_error
+from controller.path.weld_path import WeldParams, WorkspaceBox, plan_weld
+from controller.stereo.seam_curve import resample_curve
 
 UP = np.array([0.0, 0.0, 1.0])
 

@@ -1,0 +1,466 @@
+"""The cell daemon: waits for cycle requests, runs weld cycles, survives faults, loses nothing.
+
+Requests come from the controller (the RAPID program's operator cycle request, read as a robot
+event) and from the local control socket (``seamguide ctl``). One cycle runs at a time, in the main
+thread; the control socket is served from another thread, and an abort from it reaches the running
+cycle through :meth:`WeldCycle.request_abort` (arc off first).
+
+Start-up order: mark records left ``incomplete`` by a crash as ``interrupted``; connect to the robot
+and make it safe (abort: arc off, motion stopped) *before anything else*; open the camera; serve.
+A fault in a cycle never ends the daemon: a link fault reconnects the robot with exponential
+backoff, a camera fault reopens the camera. SIGTERM aborts a running weld (arc off) and exits;
+SIGHUP reloads the configuration between cycles. Under systemd (``Type=notify``) it reports
+READY, STATUS and watchdog pings.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import logging
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from calibration.calibration_file import Calibration, load_calibration
+from controller.cell.cell_config import CellConfig, load_cell_config
+from controller.cell.control_socket import ControlServer
+from controller.cell.cycle import WeldCycle
+from controller.cell.cycle_record import mark_interrupted, rotate_records
+from controller.cell.sd_notify import notify, watchdog_interval_s
+from controller.errors import CameraError, ConfigError, LinkError, SeamguideError
+from controller.path.weld_path import WeldPath
+
+log = logging.getLogger(__name__)
+
+#: The job timeout (a ``TimeoutsSpec`` field) that bounds each cycle state, for the watchdog.
+STATE_TIMEOUTS = {"moving_to_view": "move_s", "capturing": "capture_s", "locating": "locate_s",
+                  "planning": "plan_s", "confirming": "confirm_s", "welding": "weld_s"}
+
+
+def open_cell_robot(cfg: CellConfig) -> Any:
+    """The cell's robot (not yet opened)."""
+    from drivers.robot import open_robot
+
+    return open_robot(cfg.robot.url, timeout_s=cfg.robot.timeout_s)
+
+
+def open_cell_camera(cfg: CellConfig, robot: Any) -> Any:
+    """The cell's camera; a ``sim:`` camera is wired to the mock robot behind ``robot``.
+
+    The simulated camera renders from the mock robot's actual flange pose times the simulated
+    cell's true hand-eye transform, so it needs ``robot.url = "mock://..."``. Raises
+    :class:`ConfigError` / :class:`CameraError`.
+    """
+    from drivers.cameras import open_camera
+
+    if not cfg.camera.url.startswith("sim:"):
+        return open_camera(cfg.camera.url)
+    if getattr(robot, "mock", None) is None:
+        raise ConfigError(f"{cfg.path}: camera.url is sim: (a simulated camera), which "
+                          f"renders from the mock robot's pose: robot.url must be mock://")
+    from drivers.sim.sim_cell import default_sim_cell
+    from drivers.sim.sim_scene import make_scene
+
+    assert cfg.sim is not None
+    scene = make_scene(cfg.sim.scene, cfg.sim.seed, cfg.sim.difficulty)
+    cell = default_sim_cell()
+    mock = robot.mock
+
+    def pose() -> np.ndarray:
+        return np.asarray(mock.flange_pose() @ cell.T_flange_cam)
+
+    return open_camera(cfg.camera.url, scene=scene, camera_model=cell.camera, pose_source=pose)
+
+
+class Daemon:
+    """The long-running cell process; :meth:`serve` blocks until SIGTERM or :meth:`shutdown`."""
+
+    def __init__(self, config_path: str | Path) -> None:
+        self.config_path = Path(config_path)
+        self.cfg = load_cell_config(config_path)
+        self._lock = threading.Lock()
+        # Pending cycle requests (job, source); guarded by _lock, signalled by _wake.
+        self._pending: collections.deque[tuple[str, str]] = collections.deque()
+        self._wake = threading.Condition(self._lock)
+        self._paused = False
+        self._stop = threading.Event()
+        self._reload = threading.Event()
+        self._cycle: WeldCycle | None = None
+        self._cycle_state = "idle"
+        self._cycle_job: str | None = None
+        self.counters = {"cycles_done": 0, "cycles_faulted": 0, "cycles_aborted": 0,
+                         "requests_rejected": 0}
+        self.last_cycle: dict[str, Any] | None = None
+        self.robot: Any = None
+        self.camera: Any = None
+        self.calibration: Calibration | None = None
+        self.robot_state = "disconnected"
+        self.reloads = 0
+        self.camera_state = "closed"
+        self._backoff = self.cfg.robot.reconnect_min_s
+        self._server: ControlServer | None = None
+        self.ready = threading.Event()
+        self._ended = threading.Condition(self._lock)
+        # A weld path waiting for the operator (summary) and the answer; guarded by _lock.
+        self._awaiting: dict[str, Any] | None = None
+        self._decision: bool | None = None
+        self._decided = threading.Condition(self._lock)
+        # Watchdog: the serve loop checks in between cycles; a long wait that is bounded by its
+        # own timeout (a cycle state, a reconnect backoff) is alive until then (monotonic s).
+        self._checked_in = time.monotonic()
+        self._busy_until = 0.0
+        self._cycle_timeouts: Any = None
+
+    # ------------------------------------------------------------------ control requests
+    def handle_request(self, req: dict[str, Any]) -> dict[str, Any]:
+        """Answer one control-socket request (thread-safe)."""
+        cmd = req.get("cmd")
+        if cmd == "status":
+            return self.status()
+        if cmd == "start":
+            job = req.get("job")
+            if not isinstance(job, str) or not job:
+                return self._reject("start needs a job name: {\"cmd\": \"start\", \"job\": NAME}")
+            try:
+                self.cfg.job(job)
+            except ConfigError as err:
+                return self._reject(str(err))
+            with self._lock:
+                self._pending.append((job, "control socket"))
+                self._wake.notify_all()
+                n = len(self._pending)
+            return {"ok": True, "queued": job, "queue_length": n}
+        if cmd in ("confirm", "reject"):
+            with self._lock:
+                if self._awaiting is None:
+                    waiting = False
+                else:
+                    waiting = True
+                    self._decision = cmd == "confirm"
+                    self._decided.notify_all()
+            if not waiting:
+                return self._reject(f"{cmd}: no weld path is waiting for confirmation")
+            return {"ok": True, "confirmed": cmd == "confirm"}
+        if cmd == "abort":
+            with self._lock:
+                dropped = len(self._pending)
+                self._pending.clear()
+                cycle = self._cycle
+                if self._awaiting is not None:  # a path waiting for the operator: that is a no
+                    self._decision = False
+                    self._decided.notify_all()
+            if cycle is not None:
+                cycle.request_abort("operator abort (control socket)")
+            return {"ok": True, "aborted": cycle is not None, "dropped_requests": dropped}
+        if cmd in ("pause", "resume"):
+            with self._lock:
+                self._paused = cmd == "pause"
+                self._wake.notify_all()
+            return {"ok": True, "paused": cmd == "pause"}
+        return self._reject(f"unknown command {cmd!r}; use start, status, abort, pause, "
+                            "resume, confirm, reject")
+
+    def _reject(self, why: str) -> dict[str, Any]:
+        with self._lock:
+            self.counters["requests_rejected"] += 1
+        return {"ok": False, "error": why}
+
+    def status(self) -> dict[str, Any]:
+        """The status answer: state (``idle`` when waiting), counters, last cycle, devices."""
+        with self._lock:
+            return {"ok": True, "cell": self.cfg.name, "state": self._cycle_state,
+                    "job": self._cycle_job, "paused": self._paused,
+                    "robot": self.robot_state, "camera": self.camera_state,
+                    "queue_length": len(self._pending), "counters": dict(self.counters),
+                    "config_reloads": self.reloads,
+                    "awaiting_confirmation": self._awaiting,
+                    "last_cycle": self.last_cycle}
+
+    def wait_cycles(self, n: int, timeout_s: float) -> bool:
+        """Block until ``n`` cycles have ended (done, faulted or aborted); False on timeout."""
+        def ended() -> int:
+            c = self.counters
+            return c["cycles_done"] + c["cycles_faulted"] + c["cycles_aborted"]
+
+        with self._lock:
+            return self._ended.wait_for(lambda: ended() >= n, timeout=timeout_s)
+
+    # ------------------------------------------------------------------ life cycle
+    def request_stop(self, reason: str = "shutdown") -> None:
+        """Stop after making the robot safe: a running weld is aborted (arc off) first."""
+        self._stop.set()
+        with self._lock:
+            self._wake.notify_all()
+            self._decided.notify_all()
+            cycle = self._cycle
+        if cycle is not None:
+            threading.Thread(target=cycle.request_abort, args=(reason,), daemon=True).start()
+
+    def install_signal_handlers(self) -> None:
+        """SIGTERM/SIGINT stop safely; SIGHUP reloads the configuration between cycles.
+
+        A handler runs in the main thread, which may hold the daemon's lock at that moment: it
+        only sets flags and hands the rest (taking the lock, aborting the cycle) to a thread.
+        """
+        def stop(name: str) -> None:
+            self._stop.set()
+            threading.Thread(target=self.request_stop, args=(f"shutdown ({name})",),
+                             daemon=True).start()
+
+        signal.signal(signal.SIGTERM, lambda *_: stop("SIGTERM"))
+        signal.signal(signal.SIGINT, lambda *_: stop("SIGINT"))
+        signal.signal(signal.SIGHUP, lambda *_: self._reload.set())
+
+    def serve(self) -> int:
+        """Run until stopped; returns the exit code (0 after a clean stop)."""
+        marked = mark_interrupted(self.cfg.records.dir)
+        for d in marked:
+            log.warning("cycle record %s was left incomplete by a previous run: marked "
+                        "interrupted", d)
+        self.calibration = load_calibration(self.cfg.calibration)
+        self._connect_robot()
+        self._server = ControlServer(self.cfg.control.socket, self.handle_request,
+                                     self.cfg.control.max_line_bytes)
+        self._server.start()
+        notify("READY=1")
+        notify(f"STATUS=cell {self.cfg.name}: waiting for cycle requests")
+        log.info("daemon ready: cell %s, control socket %s", self.cfg.name,
+                 self.cfg.control.socket)
+        self.ready.set()
+        wd = watchdog_interval_s()
+        if wd is not None:
+            threading.Thread(target=self._watchdog, args=(wd,), name="watchdog",
+                             daemon=True).start()
+        try:
+            while not self._stop.is_set():
+                with self._lock:
+                    self._checked_in = time.monotonic()
+                if self._reload.is_set():
+                    self._do_reload()
+                if self.robot is None:
+                    self._connect_robot()
+                    continue
+                request = self._next_request()
+                if request is not None:
+                    self._run_cycle(*request)
+        finally:
+            self._shutdown()
+        return 0
+
+    def _next_request(self) -> tuple[str, str] | None:
+        with self._lock:
+            # Wait on the condition (woken by start/resume/stop) for at most 0.1 s, then look at
+            # the controller's events.
+            self._wake.wait_for(lambda: self._stop.is_set() or (self._pending and not self._paused),
+                                timeout=0.1)
+            if self._stop.is_set() or self._paused:
+                return None
+            if self._pending:
+                return self._pending.popleft()
+        try:
+            event = self.robot.poll_event(timeout_s=0.1)
+        except LinkError as err:
+            log.error("robot link lost while idle: %s", err)
+            self._drop_robot()
+            return None
+        if event is not None and event.kind == "cycle_request":
+            try:
+                self.cfg.job(event.job)
+            except ConfigError as err:
+                log.error("the controller asked for job %r: %s", event.job, err)
+                with self._lock:
+                    self.counters["requests_rejected"] += 1
+                return None
+            return event.job, "controller"
+        return None
+
+    def _connect_robot(self) -> None:
+        """Open the robot link and make the robot safe; back off exponentially on failure."""
+        try:
+            if self.robot is None:
+                robot = open_cell_robot(self.cfg)
+                robot.open()
+                self.robot = robot
+            self.robot.abort()  # make safe before anything else
+            log.info("robot link open; robot made safe (arc off, motion stopped)")
+            with self._lock:
+                self.robot_state = "connected"
+            self._backoff = self.cfg.robot.reconnect_min_s
+            self._open_camera()
+        except LinkError as err:
+            with self._lock:
+                self.robot_state = f"reconnecting ({err})"
+            log.error("robot link: %s; retrying in %.1f s", err, self._backoff)
+            self._drop_robot()
+            self._busy(self._backoff)
+            self._stop.wait(self._backoff)
+            self._backoff = min(self._backoff * 2, self.cfg.robot.reconnect_max_s)
+
+    def _open_camera(self) -> None:
+        if self.camera is not None or self.robot is None:
+            return
+        try:
+            self.camera = open_cell_camera(self.cfg, self.robot)
+            self.camera_state = "open"
+        except CameraError as err:
+            self.camera_state = f"failed ({err})"
+            log.error("camera: %s", err)
+
+    def _drop_robot(self) -> None:
+        if self.robot is not None:
+            with contextlib.suppress(SeamguideError):
+                self.robot.close()
+        self.robot = None
+        if self.camera is not None:
+            with contextlib.suppress(SeamguideError):
+                self.camera.close()
+        self.camera = None
+        self.camera_state = "closed"
+
+    def _run_cycle(self, job_name: str, source: str) -> None:
+        try:
+            job = self.cfg.job(job_name)
+        except ConfigError as err:
+            self._reject(str(err))
+            return
+        self._open_camera()
+        if self.camera is None:
+            with self._lock:
+                self.counters["cycles_faulted"] += 1
+                self.last_cycle = {"job": job_name, "status": "fault",
+                                   "reason": f"camera unavailable: {self.camera_state}",
+                                   "record": None}
+                self._ended.notify_all()
+            return
+        assert self.calibration is not None
+        cycle = WeldCycle(self.robot, self.camera, self.calibration, job,
+                          records_root=self.cfg.records.dir,
+                          safe_joints_deg=self.cfg.safe_joints_deg, on_state=self._on_state,
+                          confirm=self._await_confirmation)
+        with self._lock:
+            self._cycle = cycle
+            self._cycle_job = job_name
+            self._cycle_timeouts = job.timeouts
+        notify(f"STATUS=cycle of job {job_name} running")
+        log.info("cycle of job %s started (requested by %s)", job_name, source)
+        try:
+            result = cycle.run()
+        finally:
+            with self._lock:
+                self._cycle = None
+                self._cycle_state = "idle"
+                self._cycle_job = None
+                self._busy_until = 0.0
+        key = {"done": "cycles_done", "aborted": "cycles_aborted"}.get(result.status,
+                                                                      "cycles_faulted")
+        with self._lock:
+            self.counters[key] += 1
+            self.last_cycle = {"job": job_name, "status": result.status,
+                               "reason": result.reason,
+                               "record": str(result.record_path) if result.record_path else None}
+            self._ended.notify_all()
+        log.info("cycle of job %s ended %s%s", job_name, result.status,
+                 f": {result.reason}" if result.reason else "")
+        notify(f"STATUS=last cycle {result.status}; waiting for cycle requests")
+        if isinstance(result.error, LinkError):
+            self._drop_robot()
+            with self._lock:
+                self.robot_state = "reconnecting"
+        elif isinstance(result.error, CameraError):
+            with contextlib.suppress(SeamguideError):
+                self.camera.close()
+            self.camera = None
+            self.camera_state = "closed"
+        rotate_records(self.cfg.records.dir, self.cfg.records.max_age_days,
+                       self.cfg.records.max_total_mb)
+
+    def _await_confirmation(self, path: WeldPath, timeout_s: float) -> bool:
+        """The operator's answer to a planned weld path (``ctl confirm`` / ``ctl reject``).
+
+        Waits up to ``timeout_s`` (the job's confirm timeout); no answer, an abort or a shutdown
+        is a no. ``status`` shows the path's summary (mm, base frame) meanwhile.
+        """
+        tips = np.array([t.T_base_tcp[:3, 3] for t in path.weld_targets])
+        summary = {"weld_points": len(tips),
+                   "length_mm": round(float(np.linalg.norm(np.diff(tips, axis=0), axis=1).sum()),
+                                      1),
+                   "first_mm": np.round(tips[0], 2).tolist(),
+                   "last_mm": np.round(tips[-1], 2).tolist(),
+                   "timeout_s": round(timeout_s, 1)}
+        log.warning("weld path waiting for the operator: %s; answer with `seamguide ctl confirm` "
+                    "or `reject`", summary)
+        notify("STATUS=waiting for the operator to confirm the weld path")
+        with self._lock:
+            self._awaiting, self._decision = summary, None
+            try:
+                self._decided.wait_for(lambda: self._decision is not None or self._stop.is_set(),
+                                       timeout=timeout_s)
+                return self._decision is True and not self._stop.is_set()
+            finally:
+                self._awaiting, self._decision = None, None
+
+    def _on_state(self, name: str) -> None:
+        with self._lock:
+            limit = getattr(self._cycle_timeouts, STATE_TIMEOUTS.get(name, ""), None)
+            self._cycle_state = name
+        self._busy(limit if limit is not None else 60.0)
+
+    def _busy(self, seconds: float) -> None:
+        """The serve thread enters a wait bounded by ``seconds``: the watchdog keeps pinging."""
+        with self._lock:
+            self._checked_in = time.monotonic()
+            self._busy_until = self._checked_in + seconds
+
+    def _watchdog(self, interval_s: float) -> None:
+        """Ping systemd's watchdog every ``interval_s`` while the daemon is alive.
+
+        Alive: the serve loop checked in within two intervals, or it is in a wait bounded by its
+        own timeout (:meth:`_busy`): a cycle state (a weld may run for minutes; the cycle enforces
+        that timeout itself, so a cycle stuck beyond it means the daemon hangs, and systemd
+        restarts it) or a reconnect backoff (up to ``reconnect_max_s``).
+        """
+        while not self._stop.wait(interval_s):
+            now = time.monotonic()
+            with self._lock:
+                alive = (now - self._checked_in <= 2 * interval_s
+                         or now <= self._busy_until + interval_s)
+            if alive:
+                notify("WATCHDOG=1")
+            else:
+                log.error("watchdog: the serve loop has not checked in for %.1f s; not pinging",
+                          now - self._checked_in)
+
+    def _do_reload(self) -> None:
+        self._reload.clear()
+        try:
+            new = load_cell_config(self.config_path)
+            calib = load_calibration(new.calibration)
+        except SeamguideError as err:
+            log.error("SIGHUP: configuration not reloaded, keeping the old one: %s", err)
+            return
+        devices_changed = (new.robot != self.cfg.robot or new.camera != self.cfg.camera
+                           or new.sim != self.cfg.sim)
+        with self._lock:
+            self.cfg = new
+            self.calibration = calib
+            self.reloads += 1
+        if devices_changed:
+            self._drop_robot()
+        log.info("configuration reloaded from %s", self.config_path)
+
+    def _shutdown(self) -> None:
+        notify("STOPPING=1")
+        if self.robot is not None:
+            try:
+                self.robot.abort()
+            except SeamguideError as err:
+                log.error("could not make the robot safe at shutdown: %s", err)
+        self._drop_robot()
+        if self._server is not None:
+            self._server.stop()
+        log.info("daemon stopped")

@@ -1,0 +1,239 @@
+"""The dry run: one full weld cycle against the mock controller and the simulated camera.
+
+The mock controller runs on a real pseudo-terminal and is driven by the same client as the real
+robot; the simulated camera renders the workpiece from the pose the mock robot is actually in
+(its flange pose times the cell's *true* hand-eye transform). The job's view poses are "taught" by
+inverse kinematics of two views suggested for the scene. Because the simulator knows the truth,
+the summary reports the 3D error of the located seam and of the weld path.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from calibration.calibration_file import Calibration, load_calibration
+from controller.cell.cycle import CycleResult, WeldCycle
+from controller.cell.job import Job, job_from_dict
+from controller.errors import ReachabilityError
+from controller.geometry.kinematics import inverse_kinematics, irb2400
+from controller.geometry.poses import invert, make_pose, rotation_about
+from controller.stereo.triangulate import PolylineDistance
+from drivers.mock.mock_controller import HOME_DEG as MOCK_HOME_DEG
+
+log = logging.getLogger(__name__)
+
+#: The IK branch the view poses are taken near, and the safe pose after a fault: the mock
+#: controller's home.
+HOME_JOINTS_DEG: tuple[float, ...] = tuple(float(v) for v in MOCK_HOME_DEG)
+
+
+@dataclass
+class DryRunReport:
+    """A dry run's result plus its comparison with the simulator's truth (mm)."""
+
+    result: CycleResult
+    scene_kind: str
+    seed: int
+    difficulty: str
+    seam_rms_mm: float | None = None
+    seam_max_mm: float | None = None
+    path_rms_mm: float | None = None
+    path_max_mm: float | None = None
+    coverage: float | None = None
+    arc_on_after: bool | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+#: View 2 is rolled about its optical axis so that the seam runs along the image diagonal. Two
+#: views that differ by a rotation about one axis cannot show a wrong hand-eye transform (the
+#: reconstruction just shifts); rolling one view lets the quality checks catch a 5 mm hand-eye
+#: error in most cases (bench/bench_locate.py), and the diagonal is the image's longest line.
+VIEW2_ROLL_DEG = float(np.degrees(np.arctan2(1704.0, 2272.0)))
+
+
+def view_joints(scene: Any, cell: Any, n: int = 2, near: tuple[float, ...] = HOME_JOINTS_DEG,
+                baseline_mm: float = 200.0, roll_deg: float = VIEW2_ROLL_DEG) -> list[np.ndarray]:
+    """Controller joints (deg) of ``n`` suggested views of ``scene`` for the cell's camera mount.
+
+    The views are displaced across the seam; view 2 is rolled by ``roll_deg`` about its optical
+    axis. Raises :class:`ReachabilityError` when a view cannot be reached.
+    """
+    from drivers.sim.sim_render import suggest_view_poses
+
+    robot = irb2400()
+    out = []
+    poses = suggest_view_poses(scene, cell.camera, n=n, baseline_mm=baseline_mm)
+    if n >= 2:
+        poses[1] = poses[1] @ make_pose(rotation_about([0, 0, 1], np.radians(roll_deg)))
+    for i, T_base_cam in enumerate(poses):
+        sols = inverse_kinematics(robot, T_base_cam @ invert(cell.T_flange_cam))
+        if not sols:
+            raise ReachabilityError(f"view {i + 1} of the simulated scene cannot be reached")
+        out.append(min(sols, key=lambda j: float(np.max(np.abs(j - np.asarray(near))))))
+    return out
+
+
+def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False) -> Job:
+    """A job for the simulated scene: the views, the nominal seam region and normal, defaults."""
+    region = scene.nominal_region()
+    # A job's nominal region comes from a drawing or a rough teach, not from the truth: shift the
+    # centre by a few millimetres and widen the radius accordingly.
+    rng = np.random.default_rng(scene.seed)
+    centre = np.asarray(region["centre_mm"], dtype=np.float64) + rng.uniform(-5.0, 5.0, 3)
+    data = {
+        "name": f"dry-run-{scene.kind}",
+        "views": [{"name": f"view{i + 1}", "joints_deg": [round(float(v), 4) for v in j]}
+                  for i, j in enumerate(joints)],
+        "seam": {"nominal_centre_mm": [round(float(v), 3) for v in centre],
+                 "nominal_radius_mm": float(region["radius_mm"]) + 20.0,
+                 "normal": [round(float(v), 6) for v in scene.surface_normal]},
+        "weld": {"confirm": confirm},
+    }
+    return job_from_dict(data, "<dry-run job>")
+
+
+def truth_errors(seam_dense_mm: np.ndarray, weld_tcp_mm: np.ndarray, tool_axis: np.ndarray,
+                 tool_offset_mm: float, truth_mm: np.ndarray) -> dict[str, float]:
+    """3D errors (mm) of the located seam and of the welded torch-tip path against the truth.
+
+    The torch tip stands ``tool_offset_mm`` off the seam on purpose; the path error is measured
+    after adding that offset back along each target's torch axis.
+    """
+    dist = PolylineDistance(truth_mm)
+    d_seam = dist(seam_dense_mm)
+    d_path = dist(weld_tcp_mm + tool_offset_mm * tool_axis)
+    return {"seam_rms_mm": float(np.sqrt(np.mean(d_seam**2))), "seam_max_mm": float(d_seam.max()),
+            "path_rms_mm": float(np.sqrt(np.mean(d_path**2))), "path_max_mm": float(d_path.max())}
+
+
+class SimRig:
+    """The simulated cell assembled: scene, cell, calibration, job, mock robot and camera.
+
+    A context manager: entering opens the mock controller (on a real pseudo-terminal, driven by the
+    real client) and the simulated camera, which renders from the mock's actual flange pose times
+    the cell's *true* hand-eye. Tests use it to inject faults into an otherwise real cycle.
+    """
+
+    def __init__(self, *, scene_kind: str = "s_curve", seed: int = 1, difficulty: str = "medium",
+                 calibration: str | Path | Calibration | None = None, robot_options: str = "",
+                 camera_options: str = "", speedup: float = 50.0, confirm: bool = False,
+                 n_views: int = 2) -> None:
+        from drivers.sim.sim_cell import default_sim_cell
+        from drivers.sim.sim_scene import make_scene
+
+        self.scene = make_scene(scene_kind, seed, difficulty)
+        self.seed = seed
+        self.cell = default_sim_cell()
+        if isinstance(calibration, Calibration):
+            self.calibration = calibration
+        elif calibration is not None:
+            self.calibration = load_calibration(calibration)
+        else:
+            self.calibration = Calibration(self.cell.camera, self.cell.T_flange_cam,
+                                           metadata={"source": "exact simulated cell"})
+        self.job = dry_run_job(self.scene, view_joints(self.scene, self.cell, n_views), confirm)
+        self.robot_url = f"mock://?seed={seed}&time_scale={1.0 / speedup:g}" + (
+            f"&{robot_options}" if robot_options else "")
+        self.camera_url = f"sim:?seed={seed}" + (f"&{camera_options}" if camera_options else "")
+        self.robot: Any = None
+        self.camera: Any = None
+
+    def __enter__(self) -> SimRig:
+        from drivers.cameras import open_camera
+        from drivers.robot import SafetyLimits, open_robot
+
+        lim = self.job.limits
+        self.robot = open_robot(self.robot_url, limits=SafetyLimits(
+            workspace_min_mm=lim.workspace_min_mm, workspace_max_mm=lim.workspace_max_mm,
+            max_speed_mm_s=lim.max_speed_mm_s))
+        self.robot.open()
+        mock, he = self.robot.mock, self.cell.T_flange_cam
+        self.camera = open_camera(self.camera_url, scene=self.scene, camera_model=self.cell.camera,
+                                  pose_source=lambda: mock.flange_pose() @ he)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.camera is not None:
+            self.camera.close()
+        if self.robot is not None:
+            self.robot.close()
+
+    @property
+    def mock(self) -> Any:
+        """The mock controller behind the link (arc output, executed motions, fault injection)."""
+        return self.robot.mock
+
+    def cycle(self, records_root: str | Path | None, **kwargs: Any) -> WeldCycle:
+        """A :class:`WeldCycle` of the rig's job (keyword arguments go to WeldCycle)."""
+        kwargs.setdefault("safe_joints_deg", HOME_JOINTS_DEG)
+        return WeldCycle(kwargs.pop("robot", self.robot), kwargs.pop("camera", self.camera),
+                         kwargs.pop("calibration", self.calibration), kwargs.pop("job", self.job),
+                         records_root=records_root, **kwargs)
+
+    def report(self, result: CycleResult, cycle: WeldCycle | None = None) -> DryRunReport:
+        """Compare a finished cycle with the simulator's truth."""
+        rep = DryRunReport(result, self.scene.kind, self.seed, self.scene.difficulty,
+                           arc_on_after=bool(self.mock.arc_on))
+        if result.seam is not None and result.path is not None:
+            weld = result.path.weld_targets
+            errs = truth_errors(result.seam.dense_points_mm,
+                                np.array([t.T_base_tcp[:3, 3] for t in weld]),
+                                np.array([t.T_base_tcp[:3, 2] for t in weld]),
+                                result.path.params.tool_offset_mm, self.scene.seam_points_mm)
+            rep.seam_rms_mm, rep.seam_max_mm = errs["seam_rms_mm"], errs["seam_max_mm"]
+            rep.path_rms_mm, rep.path_max_mm = errs["path_rms_mm"], errs["path_max_mm"]
+            rep.coverage = result.seam.quality.get("coverage")
+            if cycle is not None and cycle.record is not None:
+                cycle.record.note(truth=errs, scene={"kind": self.scene.kind, "seed": self.seed,
+                                                     "difficulty": self.scene.difficulty})
+        return rep
+
+
+def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_curve",
+                seed: int = 1, difficulty: str = "medium", calibration: str | Path | None = None,
+                robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
+                confirm: bool = False, n_views: int = 2) -> DryRunReport:
+    """Run one cycle in the simulated cell; the record goes under ``output`` (None: no record).
+
+    ``calibration`` is a calibration file to use instead of the cell's exact one (e.g. from a
+    simulated teach session). ``robot_options`` / ``camera_options`` are extra URL query options
+    (fault injection, e.g. ``drop=0.01&corrupt=0.02``). ``speedup`` runs simulated motion that
+    many times faster than real time.
+    """
+    rig = SimRig(scene_kind=scene_kind, seed=seed, difficulty=difficulty, calibration=calibration,
+                 robot_options=robot_options, camera_options=camera_options, speedup=speedup,
+                 confirm=confirm, n_views=n_views)
+    with rig:
+        cycle = rig.cycle(output)
+        result = cycle.run()
+        return rig.report(result, cycle)
+
+
+def summary_text(rep: DryRunReport) -> str:
+    """A short human summary: states and times, seam length, weld points, errors vs truth."""
+    r = rep.result
+    lines = [f"dry run: scene {rep.scene_kind} (seed {rep.seed}, {rep.difficulty}) -> "
+             f"{r.status.upper()}" + (f": {r.reason}" if r.reason else "")]
+    hist = r.state_history
+    for (name, t0), nxt in zip(hist, [*hist[1:], None], strict=True):
+        dur = "" if nxt is None else f"{nxt[1] - t0:8.3f} s"
+        lines.append(f"  {name:<15}{dur}")
+    if r.seam is not None:
+        lines.append(f"  seam: {r.seam.length_mm:.1f} mm, {len(r.seam.points_mm)} points, "
+                     f"coverage {r.seam.quality['coverage']:.1%}")
+    if r.path is not None:
+        lines.append(f"  weld path: {len(r.path.weld_targets)} weld points + approach/depart, "
+                     f"tool offset {r.path.params.tool_offset_mm:.1f} mm")
+    if rep.seam_rms_mm is not None:
+        lines.append(f"  error vs truth: seam {rep.seam_rms_mm:.3f} mm RMS / "
+                     f"{rep.seam_max_mm:.3f} mm max; weld path {rep.path_rms_mm:.3f} mm RMS / "
+                     f"{rep.path_max_mm:.3f} mm max")
+    lines.append(f"  arc after the cycle: {'ON' if rep.arc_on_after else 'off'}")
+    if r.record_path is not None:
+        lines.append(f"  record: {r.record_path}")
+    return "\n".join(lines)

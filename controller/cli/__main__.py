@@ -1,0 +1,5 @@
+"""``python -m controller.cli``: the seamguide command line."""
+
+from controller.cli.main import main
+
+raise SystemExit(main())

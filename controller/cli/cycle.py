@@ -1,0 +1,149 @@
+"""``seamguide dry-run``, ``seamguide teach-view`` and ``seamguide locate``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from controller.errors import SeamguideError
+from controller.jsonio import emit_json
+
+
+def register(sub: Any) -> None:
+    """Add the ``dry-run``, ``teach-view`` and ``locate`` subcommands."""
+    p = sub.add_parser("dry-run", help="a full weld cycle against the mock robot and simulated "
+                       "camera", description="Runs one complete weld cycle: the mock controller "
+                       "on a pseudo-terminal driven by the real client, a simulated camera that "
+                       "renders the workpiece from the mock robot's pose, detection, "
+                       "triangulation, planning and the weld pass. Prints a summary with the "
+                       "error against the simulator's truth and writes the cycle record.")
+    p.add_argument("--output", default="dry-run", help="folder for cycle records "
+                   "(default: ./dry-run)")
+    p.add_argument("--scene", default="s_curve",
+                   choices=["straight", "arc", "s_curve", "nonplanar"], help="seam shape")
+    p.add_argument("--seed", type=int, default=1, help="scene seed (default 1)")
+    p.add_argument("--difficulty", default="medium", choices=["easy", "medium", "hard"])
+    p.add_argument("--calibration", help="use this calibration file instead of the exact one")
+    p.add_argument("--robot-options", default="", help="mock URL options, e.g. "
+                   "'drop=0.01&corrupt=0.02' (fault injection)")
+    p.add_argument("--camera-options", default="", help="simulated camera URL options")
+    p.add_argument("--speedup", type=float, default=50.0,
+                   help="simulated motion runs this many times faster than real time")
+    p.add_argument("--json", action="store_true", help="print the report as JSON on stdout")
+    p.set_defaults(func=_dry_run)
+
+    t = sub.add_parser("teach-view", help="store the robot's current joints as a job's view",
+                       description="Reads the controller's joints over the link and stores them "
+                       "as view NAME of the job file (replacing it if it exists).")
+    t.add_argument("job", help="job file (TOML)")
+    t.add_argument("name", help="view name, e.g. view1")
+    t.add_argument("--port", required=True, help="robot URL (/dev/ttyS0, socket://..., mock://)")
+    t.add_argument("--speed", type=float, help="speed to move to this view, mm/s")
+    t.set_defaults(func=_teach_view)
+
+    loc = sub.add_parser("locate", help="the 3D seam from two or more views",
+                         description="Detects the seam in each view's image, triangulates it in "
+                         "the robot base frame and plans the weld path. Output: seam_points_mm "
+                         "(base frame, ordered, before the tool offset), weld_path, quality.")
+    loc.add_argument("--calibration", required=True, help="calibration file (YAML)")
+    loc.add_argument("--view", action="append", required=True, dest="views",
+                     help="view file (JSON); give two or more")
+    loc.add_argument("--job", help="job file: nominal seam region, normal, weld parameters, "
+                     "quality limits")
+    loc.add_argument("--spacing", type=float, help="weld point spacing, mm (default 2)")
+    loc.add_argument("--count", type=int, help="number of weld points instead of a spacing")
+    loc.add_argument("--no-path", action="store_true", help="skip weld path planning")
+    loc.add_argument("--output", help="write the JSON here instead of stdout")
+    loc.add_argument("--overlay-dir", help="write a detection overlay PNG per view here")
+    loc.set_defaults(func=_locate)
+
+
+def _dry_run(args: argparse.Namespace) -> int:
+    from controller.cell.dry_run import run_dry_run, summary_text
+
+    rep = run_dry_run(args.output, scene_kind=args.scene, seed=args.seed,
+                      difficulty=args.difficulty, calibration=args.calibration,
+                      robot_options=args.robot_options, camera_options=args.camera_options,
+                      speedup=args.speedup)
+    print(summary_text(rep), file=sys.stderr)
+    if args.json:
+        r = rep.result
+        emit_json({"status": r.status, "reason": r.reason,
+                   "record": str(r.record_path) if r.record_path else None,
+                   "seam_rms_mm": rep.seam_rms_mm, "seam_max_mm": rep.seam_max_mm,
+                   "path_rms_mm": rep.path_rms_mm, "path_max_mm": rep.path_max_mm,
+                   "states": [s for s, _ in r.state_history]}, None)
+    if rep.result.ok:
+        return 0
+    err = rep.result.error
+    return err.exit_code if isinstance(err, SeamguideError) else 1
+
+
+def _teach_view(args: argparse.Namespace) -> int:
+    from controller.cell.job import teach_view
+    from drivers.robot import open_robot
+
+    with open_robot(args.port) as robot:
+        joints = np.asarray(robot.read_joints())
+    job = teach_view(args.job, args.name, joints, args.speed)
+    print(f"view {args.name} of job {job.name} set to {[round(float(v), 4) for v in joints]} deg",
+          file=sys.stderr)
+    return 0
+
+
+def _save_overlay(path: Path, image: np.ndarray, det: Any) -> None:
+    import cv2
+
+    from controller.errors import InputError
+    from controller.jsonio import atomic_write_bytes
+    from controller.vision.seam_overlay import draw_overlay
+
+    ok, buf = cv2.imencode(".png", draw_overlay(image, det))
+    if not ok:
+        raise InputError(f"could not encode the overlay {path}")
+    atomic_write_bytes(path, buf.tobytes())
+
+
+def _locate(args: argparse.Namespace) -> int:
+    from calibration.calibration_file import load_calibration
+    from controller.cell.cycle import locate_output
+    from controller.cell.job import load_job
+    from controller.geometry.kinematics import irb2400
+    from controller.geometry.view_file import load_view
+    from controller.path.weld_path import WeldParams, WorkspaceBox, plan_weld
+    from controller.stereo.locate import QualityLimits, ViewObservation, locate_seam
+    from controller.stereo.view_geometry import camera_pose, nominal_normal_from_views
+    from controller.vision.image_io import load_image
+    from controller.vision.seam_detect import detect_seam
+
+    calib = load_calibration(args.calibration)
+    job = load_job(args.job) if args.job else None
+    obs = []
+    for vpath in args.views:
+        view = load_view(vpath)
+        image = load_image(view.image_path, camera=calib.camera)
+        det = detect_seam(image, camera=calib.camera)
+        if args.overlay_dir:
+            _save_overlay(Path(args.overlay_dir) / f"{view.name}_overlay.png", image, det)
+        obs.append(ViewObservation(calib.camera, camera_pose(view, calib), det.points_px,
+                                   view.name))
+    limits = job.quality if job else QualityLimits()
+    spacing = args.spacing if args.spacing is not None else (job.seam.spacing_mm if job else 2.0)
+    count = args.count if args.count is not None else (job.seam.count if job else None)
+    region = ((np.asarray(job.seam.nominal_centre_mm), job.seam.nominal_radius_mm)
+              if job else None)
+    seam = locate_seam(obs, limits, spacing_mm=None if count else spacing, count=count,
+                       nominal_region=region)
+    path = None
+    if not args.no_path:
+        normal = (np.asarray(job.seam.normal) if job and job.seam.normal
+                  else nominal_normal_from_views([o.T_base_cam for o in obs]))
+        params = job.weld_params() if job else WeldParams()
+        box = job.workspace() if job else WorkspaceBox()
+        path = plan_weld(irb2400(), seam.points_mm, normal, params, box)
+    emit_json(locate_output(seam, path), args.output)
+    return 0

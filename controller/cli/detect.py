@@ -1,0 +1,83 @@
+"""``seamguide detect IMAGE``: the seam in one image, as JSON (and an overlay picture)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from typing import Any
+
+import cv2
+
+from controller.errors import AmbiguousSeam, InputError, SeamNotFound
+from controller.jsonio import emit_json
+
+log = logging.getLogger(__name__)
+
+
+def register(sub: Any) -> None:
+    """Add the ``detect`` subcommand to ``sub`` (an argparse subparsers object)."""
+    p = sub.add_parser(
+        "detect", help="find the seam in one image",
+        description="Find the weld seam in one image. Prints JSON: seam_px (the sub-pixel "
+        "centreline [[u, v], ...] in the distorted image, ordered end to end), endpoints_px, "
+        "confidence (0..1) and reasons. Exit code 9 when no seam is found, 10 when two "
+        "candidates are too alike to choose.")
+    p.add_argument("image", help="image file (PNG, JPEG, ...; 8-bit greyscale or colour)")
+    p.add_argument("--calibration", help="calibration file: checks that the image size matches")
+    p.add_argument("--output", help="write the JSON here instead of stdout")
+    p.add_argument("--overlay", help="write a PNG showing the seam, its ends and the confidence")
+    p.add_argument("--roi", help="search only in this pixel box: x0,y0,x1,y1")
+    p.add_argument("--gamma", type=float, default=2.2,
+                   help="camera response to linearise grey levels (1 for a linear camera; "
+                   "default 2.2)")
+    p.set_defaults(func=run)
+
+
+def _parse_roi(text: str | None) -> tuple[int, int, int, int] | None:
+    if text is None:
+        return None
+    parts = text.split(",")
+    try:
+        vals = [int(float(v)) for v in parts]
+    except ValueError as err:
+        raise InputError(f"--roi {text!r}: give four integers x0,y0,x1,y1") from err
+    if len(vals) != 4 or vals[2] <= vals[0] or vals[3] <= vals[1]:
+        raise InputError(f"--roi {text!r}: give x0,y0,x1,y1 with x1 > x0 and y1 > y0")
+    return vals[0], vals[1], vals[2], vals[3]
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``seamguide detect``; returns 0, or raises a SeamguideError (its exit code is used)."""
+    from controller.vision.image_io import load_image
+    from controller.vision.seam_detect import DetectParams, detect_seam
+    from controller.vision.seam_overlay import draw_overlay
+
+    camera = None
+    if args.calibration:
+        from calibration.calibration_file import load_calibration
+
+        camera = load_calibration(args.calibration).camera
+    roi = _parse_roi(args.roi)
+    image = load_image(args.image, camera=camera)
+    if args.gamma <= 0:
+        raise InputError(f"--gamma {args.gamma}: must be positive")
+    try:
+        det = detect_seam(image, camera=camera, roi=roi, params=DetectParams(gamma=args.gamma))
+    except (SeamNotFound, AmbiguousSeam) as err:
+        if args.overlay:
+            _write_png(args.overlay, draw_overlay(image, None, f"NO SEAM: {err}"))
+        raise
+    if args.overlay:
+        _write_png(args.overlay, draw_overlay(image, det))
+    doc = {"image": str(args.image), "image_size": [int(image.shape[1]), int(image.shape[0])],
+           **det.to_dict()}
+    emit_json(doc, args.output)
+    log.info("seam: %d points, confidence %.2f", len(det.points_px), det.confidence)
+    return 0
+
+
+def _write_png(path: str, img: Any) -> None:
+    ok = cv2.imwrite(path, img)
+    if not ok:
+        raise InputError(f"--overlay {path}: cannot write a PNG there; check the folder exists "
+                         "and the name ends in .png")

@@ -1,0 +1,270 @@
+"""The 3D seam from its image curves in two or more views: match, triangulate, smooth, judge.
+
+Input: per view the camera model, the camera pose ``T_base_cam`` (from FK and hand-eye, or given)
+and the detected seam polyline in pixels. Output: a :class:`Seam3D` in the base frame (mm) with the
+per-point quality, or :class:`TriangulationError` with the numbers when a quality limit fails:
+nothing doubtful is handed on to the weld.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from controller.errors import InputError, TriangulationError
+from controller.geometry.camera_model import CameraModel
+from controller.stereo.epipolar import match_curves, point_on_polyline, relative_pose
+from controller.stereo.seam_curve import arc_length, resample_curve, smooth_curve
+from controller.stereo.triangulate import PolylineDistance, resample_polyline, triangulate_rays
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ViewObservation:
+    """One view of the seam: camera, its pose in the base frame, the detected curve (px)."""
+
+    camera: CameraModel
+    T_base_cam: F64
+    seam_px: F64
+    name: str = "view"
+
+
+@dataclass(frozen=True)
+class QualityLimits:
+    """Limits a triangulated seam must meet before anything is welded (mm, px, deg)."""
+
+    max_ray_gap_mm: float = 0.5
+    max_reprojection_rms_px: float = 1.0
+    max_reprojection_px: float = 4.0
+    min_angle_deg: float = 8.0
+    min_coverage: float = 0.9
+    max_degenerate_fraction: float = 0.15
+    max_endpoint_gap_mm: float = 1.0
+    min_length_mm: float = 10.0
+    require_ends_in_view: bool = True
+    border_margin_px: float = 12.0
+
+
+@dataclass
+class Seam3D:
+    """The located seam: ordered points in the base frame (mm), dense and resampled, and quality."""
+
+    points_mm: F64
+    dense_points_mm: F64
+    ray_gap_mm: F64
+    reprojection_px: F64  # (V, N) distance of each dense point's projection to each view's curve
+    angle_deg: F64
+    quality: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def length_mm(self) -> float:
+        """Length of the seam (mm) along the smoothed curve."""
+        return float(arc_length(self.dense_points_mm)[-1])
+
+
+def _check_observation(obs: ViewObservation, i: int) -> F64:
+    px = np.asarray(obs.seam_px, dtype=np.float64)
+    if px.ndim != 2 or px.shape[1] != 2 or len(px) < 2:
+        raise InputError(f"{obs.name}: seam_px must be an ordered list of at least two [u, v] "
+                         f"points, got shape {px.shape}")
+    if not np.all(np.isfinite(px)):
+        raise InputError(f"{obs.name}: seam_px holds non-finite values")
+    return px
+
+
+def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """Index ranges [start, stop) of consecutive True values."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(),
+                    strict=True))
+
+
+def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLimits(),
+                spacing_mm: float | None = 2.0, count: int | None = None,
+                sample_px: float = 2.0,
+                nominal_region: tuple[F64, float] | None = None) -> Seam3D:
+    """Triangulate a seam seen in two or more views; the first view is the reference.
+
+    ``spacing_mm`` / ``count`` set the resampling of the output points (see
+    :func:`controller.stereo.seam_curve.resample_curve`); ``sample_px`` the spacing of the reference
+    curve samples; ``nominal_region`` = (centre mm, radius mm) from the job: every seam point must
+    lie inside that sphere (it catches a wrong curve matched consistently, and gross calibration
+    errors that no two-view check can see). Raises :class:`TriangulationError` with the failing
+    numbers in ``details``.
+    """
+    if len(views) < 2:
+        raise InputError(f"locating a seam needs at least two views, got {len(views)}")
+    curves = [_check_observation(v, i) for i, v in enumerate(views)]
+    ref_px = resample_polyline(curves[0], sample_px)
+    n = len(ref_px)
+    normalized = [views[0].camera.pixels_to_normalized(ref_px)]
+    normalized += [v.camera.pixels_to_normalized(c) for v, c in zip(views[1:], curves[1:],
+                                                                     strict=True)]
+    V = len(views)
+    origins = np.zeros((V, 3))
+    dirs = np.full((V, n, 3), np.nan)
+    valid = np.zeros((V, n), dtype=bool)
+    degenerate_any = np.zeros(n, dtype=bool)
+    matched_any = np.zeros(n, dtype=bool)
+    T0 = np.asarray(views[0].T_base_cam, dtype=np.float64)
+    origins[0], dirs[0] = views[0].camera.pixel_rays(ref_px, T0)
+    valid[0] = True
+    for k in range(1, V):
+        Tk = np.asarray(views[k].T_base_cam, dtype=np.float64)
+        m = match_curves(normalized[0], normalized[k], relative_pose(T0, Tk), limits.min_angle_deg)
+        good = np.isfinite(m.t) & ~m.degenerate
+        xy = point_on_polyline(normalized[k], m.t)
+        origins[k] = Tk[:3, 3]
+        d = np.column_stack([xy, np.ones(n)])
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        dirs[k] = d @ Tk[:3, :3].T
+        valid[k] = good
+        degenerate_any |= m.degenerate
+        matched_any |= np.isfinite(m.t)
+    valid[0] = valid[1:].any(axis=0)
+    X, rms_gap, angle = triangulate_rays(origins, dirs, valid)
+    ok = np.isfinite(X[:, 0])
+    details: dict[str, Any] = {"views": [v.name for v in views]}
+    if ok.sum() < 5 and degenerate_any.sum() >= 5:
+        baseline = views[1].T_base_cam[:3, 3] - T0[:3, 3]
+        raise TriangulationError(
+            f"the seam runs along the epipolar lines of {views[0].name} and {views[1].name} "
+            f"({int(degenerate_any.sum())} of {n} samples): its depth cannot be triangulated. The "
+            f"baseline between the cameras runs along {np.round(baseline, 1).tolist()} mm, along "
+            f"the seam; teach view 2 displaced across the seam instead, or add a third view",
+            degenerate_samples=int(degenerate_any.sum()), **details)
+    if ok.sum() < 5:
+        raise TriangulationError(
+            "the seam curves of the views do not correspond: fewer than 5 points could be "
+            "matched along epipolar lines; check that both views show the same seam and that the "
+            "calibration and view poses are right", matched_points=int(ok.sum()), **details)
+    first, last = int(np.flatnonzero(ok)[0]), int(np.flatnonzero(ok)[-1])
+    span = slice(first, last + 1)
+    s_ref = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ref_px, axis=0), axis=1))])
+    # Smooth over the reference image arc length, then fill degenerate gaps from the spline.
+    good_idx = np.flatnonzero(ok)
+    smooth_good = smooth_curve(s_ref[good_idx], X[good_idx])
+    dense = np.column_stack([np.interp(s_ref[span], s_ref[good_idx], smooth_good[:, k])
+                             for k in range(3)])
+    reproj = np.full((V, len(dense)), np.nan)
+    for k, v in enumerate(views):
+        uv = v.camera.project(dense, v.T_base_cam)
+        reproj[k] = PolylineDistance(curves[k])(uv)
+    gap_mm = 2.0 * rms_gap[span] if V == 2 else rms_gap[span]
+    in_span = np.zeros(n, dtype=bool)
+    in_span[span] = True
+    coverage = float((s_ref[last] - s_ref[first]) / max(s_ref[-1], 1e-9))
+    degenerate_fraction = float(np.mean(degenerate_any[span] & ~ok[span]))
+    endpoint_gaps = _endpoint_gaps(views, curves, dense, limits.border_margin_px)
+    cut = [f"{v.name} ({'start' if e == 0 else 'end'})" for v, c in zip(views, curves, strict=True)
+           for e in (0, -1) if not v.camera.in_image(c[e][None], limits.border_margin_px)[0]]
+    quality = {
+        "views": V,
+        "points_triangulated": int(ok.sum()),
+        "coverage": coverage,
+        "degenerate_fraction": degenerate_fraction,
+        "ray_gap_mm_max": float(np.nanmax(gap_mm)),
+        "ray_gap_mm_rms": float(np.sqrt(np.nanmean(gap_mm**2))),
+        "reprojection_px_rms": [float(np.sqrt(np.nanmean(r**2))) for r in reproj],
+        "reprojection_px_max": [float(np.nanmax(r)) for r in reproj],
+        "angle_deg_min": float(np.nanmin(angle[span])),
+        "angle_deg_median": float(np.nanmedian(angle[span])),
+        "endpoint_gap_mm": endpoint_gaps,
+        "ends_cut_by_image_border": cut,
+        "length_mm": float(arc_length(dense)[-1]),
+    }
+    if nominal_region is not None:
+        centre = np.asarray(nominal_region[0], dtype=np.float64)
+        quality["distance_from_nominal_mm_max"] = float(
+            np.max(np.linalg.norm(dense - centre, axis=1)))
+        quality["nominal_radius_mm"] = float(nominal_region[1])
+    _judge(quality, limits, degenerate_any & in_span, dense, s_ref, first, views, details)
+    points = resample_curve(dense, spacing_mm, count)
+    return Seam3D(points_mm=points, dense_points_mm=dense, ray_gap_mm=gap_mm,
+                  reprojection_px=reproj, angle_deg=angle[span], quality=quality)
+
+
+def _endpoint_gaps(views: list[ViewObservation], curves: list[F64], dense: F64,
+                   margin_px: float) -> list[float]:
+    """Per end of the located seam: how far (mm) any view's end ray passes from the 3D end point.
+
+    End points are real image features (where the seam meets the sheet borders). Matched curve
+    points meet by construction, but the views' end rays only pass through the located ends when
+    every view saw the seam end at the same place *and* the calibration and poses are right: a
+    detection that stopped short, or a wrong hand-eye, shows here. Ends on the image border are
+    not real ends and are skipped.
+    """
+    gaps: list[float] = []
+    for end3d in (dense[0], dense[-1]):
+        worst = 0.0
+        for v, c in zip(views, curves, strict=True):
+            uv = v.camera.project(end3d[None], v.T_base_cam)[0]
+            ends = c[[0, -1]]
+            px = ends[int(np.argmin(np.linalg.norm(ends - uv, axis=1)))]
+            if not v.camera.in_image(px[None], margin_px)[0]:
+                continue
+            o, d = v.camera.pixel_rays(px[None], v.T_base_cam)
+            r = end3d - o
+            worst = max(worst, float(np.linalg.norm(r - np.dot(r, d[0]) * d[0])))
+        gaps.append(worst)
+    return gaps
+
+
+def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_], dense: F64,
+           s_ref: F64, first: int, views: list[ViewObservation],
+           details: dict[str, Any]) -> None:
+    problems = []
+    if q["coverage"] < lim.min_coverage:
+        problems.append(f"only {q['coverage']:.0%} of the seam was matched between the views "
+                        f"(limit {lim.min_coverage:.0%}): the views may not both see the whole "
+                        f"seam")
+    if q["degenerate_fraction"] > lim.max_degenerate_fraction:
+        runs = _runs(degenerate)
+        i0, i1 = max(runs, key=lambda r: r[1] - r[0]) if runs else (first, first + 1)
+        a = min(max(i0 - first, 0), len(dense) - 1)
+        b = min(max(i1 - 1 - first, 0), len(dense) - 1)
+        tangent = dense[b] - dense[a]
+        view_dir = views[1].T_base_cam[:3, 2]
+        fix = np.cross(tangent, view_dir)
+        fix = fix / (np.linalg.norm(fix) or 1.0)
+        problems.append(
+            f"{q['degenerate_fraction']:.0%} of the seam runs along the epipolar lines between "
+            f"the first two views (from {dense[a].round(1).tolist()} to "
+            f"{dense[b].round(1).tolist()} mm): move view 2 so that the baseline between the "
+            f"cameras runs along {fix.round(2).tolist()} (across the seam)")
+    if q["angle_deg_min"] < lim.min_angle_deg:
+        problems.append(f"the views see the seam from too similar directions: triangulation "
+                        f"angle {q['angle_deg_min']:.1f} deg < {lim.min_angle_deg} deg")
+    if q["ray_gap_mm_max"] > lim.max_ray_gap_mm:
+        problems.append(f"rays miss each other by up to {q['ray_gap_mm_max']:.2f} mm "
+                        f"(limit {lim.max_ray_gap_mm} mm)")
+    rms, mx = max(q["reprojection_px_rms"]), max(q["reprojection_px_max"])
+    if rms > lim.max_reprojection_rms_px or mx > lim.max_reprojection_px:
+        problems.append(f"the 3D seam reprojects {rms:.2f} px RMS / {mx:.2f} px max from the "
+                        f"detected curves (limits {lim.max_reprojection_rms_px} / "
+                        f"{lim.max_reprojection_px} px)")
+    if q["endpoint_gap_mm"] and max(q["endpoint_gap_mm"]) > lim.max_endpoint_gap_mm:
+        problems.append(f"the views disagree about where the seam ends by "
+                        f"{max(q['endpoint_gap_mm']):.2f} mm (limit {lim.max_endpoint_gap_mm} mm):"
+                        f" either a detection stopped short of the seam's end (see the overlays)"
+                        f" or the hand-eye calibration or view poses are wrong")
+    if q.get("distance_from_nominal_mm_max", 0.0) > q.get("nominal_radius_mm", np.inf):
+        problems.append(f"the seam lies up to {q['distance_from_nominal_mm_max']:.1f} mm from the "
+                        f"job's nominal seam centre, outside its {q['nominal_radius_mm']:.0f} mm "
+                        f"region: another edge was probably taken for the seam, or the part is "
+                        f"not where the job expects it")
+    if lim.require_ends_in_view and q["ends_cut_by_image_border"]:
+        where = ", ".join(q["ends_cut_by_image_border"])
+        problems.append(f"the seam runs out of the image in {where}: its end is not seen, so "
+                        f"the seam could be longer than what would be "
+                        f"welded; move that view back or aim it so that the whole seam is in the "
+                        f"image")
+    if q["length_mm"] < lim.min_length_mm:
+        problems.append(f"the located seam is only {q['length_mm']:.1f} mm long")
+    if problems:
+        raise TriangulationError("3D seam failed its quality checks: " + "; ".join(problems),
+                                 quality=q, problems=problems, **details)

@@ -1,0 +1,161 @@
+"""The sub-pixel centreline of one candidate, from its profiles, with honest ends.
+
+The longest run of good profiles (short interruptions by a crossing scratch are bridged) is kept;
+outliers are dropped and the centreline is smoothed by a local quadratic (Savitzky-Golay) fit over
+arc length, which follows any shape without the curling of a global polynomial and without
+shrinking curves; the ends come from :mod:`controller.vision.seam_ends`. The candidate is then
+scored, or rejected with the reason.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.interpolate import CubicSpline
+from scipy.signal import savgol_filter
+
+from controller.vision.seam_ends import end_offset, measure_tails
+from controller.vision.seam_params import F64, Candidate, DetectParams
+from controller.vision.seam_profiles import fit_at, resample, track_on
+
+
+def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> None:
+    """Fill in ``c.points``, ``c.width``, ``c.end_kinds`` and ``c.score``, or ``c.why_rejected``."""
+    pts, nrm = resample(c.polyline, p.step_px, extend=24.0)
+    fit = fit_at(grey, lut, pts, nrm, p)
+    # The coarse search loses a faint stretch of the gap (thin, blurred, low contrast); the
+    # profiles still see it, so follow it on at full resolution until they stop fitting.
+    fit = track_on(grey, lut, fit, p, at_end=True)
+    fit = track_on(grey, lut, fit, p, at_end=False)
+    valid = fit["valid"]
+    if valid.sum() >= 8:
+        # Where a mark crosses the seam at a shallow angle the two valleys merge into one wide
+        # one whose centre is pulled toward the mark: not a measurement of the gap.
+        w_typ = float(np.median(fit["width"][valid]))
+        valid = valid & (fit["width"] < 1.6 * w_typ + 1.0)
+    # Longest run of valid profiles, bridging short interruptions; short islands at its ends are
+    # dropped (a lone fit on the sheet border beyond the seam's end is not the seam).
+    bridge = int(round(p.bridge_px / p.step_px))
+    run = _longest_bridged_run(valid, bridge, min_island=max(3, int(round(12 / p.step_px))))
+    if run is None or (run[1] - run[0]) * p.step_px < p.min_length_px * 0.5:
+        c.why_rejected = (f"candidate of {c.length_px:.0f} px has no long run of gap profiles "
+                          f"({int(valid.sum())} of {len(valid)} good)")
+        return
+    i0, i1 = run
+    sel = np.arange(i0, i1 + 1)
+    ok = valid[sel]
+    pts_run = fit["centre"][sel].copy()
+    t = np.arange(len(sel), dtype=np.float64)
+    if (~ok).any():
+        # Bridged samples (a hole in the gap) follow a cubic through the measured ones.
+        pts_run[~ok] = CubicSpline(t[ok], pts_run[ok], axis=0)(t[~ok])
+    win = int(min((len(sel) - 1) // 2 * 2 + 1, 2 * int(round(14 / p.step_px)) + 1))
+    if win >= 5:
+        sm = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
+        dev = np.linalg.norm(pts_run - sm, axis=1)
+        mad = np.median(dev[ok]) + 1e-6
+        good = ok & (dev < max(4 * mad, 0.6))
+        if (~good).any():
+            pts_run[~good] = CubicSpline(t[good], pts_run[good], axis=0)(t[~good])
+        pts_run = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
+    depth_med = float(np.median(fit["depth"][sel][ok]))
+    # Honest ends: where the sheets end (or the image does), found from the two sides separately.
+    # Profiles within a profile length of an end may be crossed by the sheet border, so the
+    # last stretch of the curve is extrapolated from the samples before it, only to guide short
+    # profiles that measure it again (:func:`measure_tails`): a quadratic extrapolated over tens
+    # of pixels drifts by 1-2 px on a curve.
+    w_med = float(np.median(fit["width"][sel][ok]))
+    w_run = fit["width"][sel]
+    m = int(np.ceil(p.half_width_px / p.step_px)) + 1
+    n_fit = 12
+    use_extrap = len(pts_run) >= 2 * (m + n_fit)
+    parts: list[F64] = []
+    ders: list[F64] = []
+    end_kinds: list[str] = []
+    lo, hi = 0, len(pts_run)
+    for first in (True, False):
+        seq = pts_run if not first else pts_run[::-1]  # seq runs toward this end
+        L = len(seq)
+        if use_extrap:
+            tt = np.arange(L - m - n_fit, L - m, dtype=np.float64)
+            coef = np.polyfit(tt - (L - 1), seq[L - m - n_fit:L - m], 2)
+            e_pt = np.array([np.polyval(coef[:, k], 0.0) for k in range(2)])
+            d_pt = np.array([np.polyval(np.polyder(coef[:, k]), 0.0) for k in range(2)])
+            tang = d_pt / (np.linalg.norm(d_pt) + 1e-12)
+        else:
+            e_pt = seq[-1]
+            tang = seq[-1] - seq[max(0, L - 4)]
+            tang /= np.linalg.norm(tang) + 1e-12
+        k_end, end_kind = end_offset(grey, lut, e_pt, tang, w_med)
+        end_kinds.append(end_kind)
+        if use_extrap:
+            # Extrapolated points from the last trusted sample to the end, one per step.
+            t_end = k_end / max(float(np.linalg.norm(d_pt)), 1e-9)
+            tq = np.arange(-m + 1.0, t_end, 1.0)
+            tq = np.append(tq, t_end)
+            ext = np.column_stack([np.polyval(coef[:, k], tq) for k in range(2)])
+            ders.append(np.column_stack([np.polyval(np.polyder(coef[:, k]), tq)
+                                         for k in range(2)]))
+            keep_n = L - m
+        else:
+            ext = (e_pt + k_end * tang)[None, :]
+            along = (seq - e_pt) @ tang
+            keep_n = int(np.sum(along < k_end - 0.5 * p.step_px))
+        if first:
+            lo = L - keep_n
+        else:
+            hi = keep_n
+        parts.append(ext)
+    if use_extrap:
+        parts = measure_tails(grey, lut, parts, ders, w_med, p)
+    parts[0] = parts[0][::-1]
+    c.end_kinds = (end_kinds[0], end_kinds[1])
+    if hi - lo < 2:
+        c.why_rejected = "seam candidate collapsed when its ends were measured"
+        return
+    body = pts_run[lo:hi]
+    pts_run = np.vstack([parts[0], body, parts[1]])
+    c.points = pts_run
+    wb = w_run[lo:hi]
+    c.width = np.concatenate([np.full(len(parts[0]), wb[0]), wb, np.full(len(parts[1]), wb[-1])])
+    c.depth = depth_med
+    c.valid_frac = float(ok.mean())
+    c.resid = float(np.median(fit["rms"][sel][ok] / np.maximum(fit["contrast"][sel][ok], 1e-6)))
+    length = float(np.sum(np.linalg.norm(np.diff(pts_run, axis=0), axis=1)))
+    if length < p.min_length_px:
+        c.why_rejected = f"gap run only {length:.0f} px long (< {p.min_length_px:.0f})"
+        return
+    c.length_px = length
+    if c.end_kinds == ("open", "open"):
+        c.why_rejected = (f"dark line of {length:.0f} px fades out inside the sheet at both ends "
+                          "(a pen mark or scratch, not a joint running border to border)")
+        return
+    c.score = length * c.depth * c.valid_frac
+
+
+def _longest_bridged_run(valid: NDArray[np.bool_], bridge: int, min_island: int,
+                         bridge_short: int | None = None) -> tuple[int, int] | None:
+    """Longest run of valid samples after joining islands across holes.
+
+    Islands shorter than ``min_island`` are dropped; a hole of up to ``bridge_short`` samples is
+    always bridged, one of up to ``bridge`` only between two islands of at least 4 x min_island
+    (a long hole is bridged only when the seam is clearly seen on both sides of it).
+    """
+    short = max(1, bridge // 6) if bridge_short is None else bridge_short
+    m = np.concatenate([[0], valid.astype(np.int8), [0]])
+    st, en = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
+    islands = [(int(a), int(b)) for a, b in zip(st, en, strict=True) if b - a >= min_island]
+    if not islands:
+        return None
+    runs = [list(islands[0])]
+    last_len = islands[0][1] - islands[0][0]
+    for a, b in islands[1:]:
+        hole = a - runs[-1][1]
+        long_both = last_len >= 4 * min_island and b - a >= 4 * min_island
+        if hole <= short or (hole <= bridge and long_both):
+            runs[-1][1] = b
+        else:
+            runs.append([a, b])
+        last_len = b - a
+    a, b = max(runs, key=lambda r: r[1] - r[0])
+    return a, b - 1

@@ -1,0 +1,47 @@
+"""The decision on the best candidate: its confidence and the reasons, and how it is reported."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from controller.vision.seam_params import F64, Candidate
+
+
+def rate_confidence(c: Candidate, ratio: float) -> tuple[float, list[str]]:
+    """Confidence 0..1 of ``c`` (``ratio``: next candidate's score over its own) and why."""
+    reasons = [f"thin dark valley {c.length_px:.0f} px long with a sheet on each side",
+               f"{100 * c.valid_frac:.0f} % of cross-profiles fit two gap edges",
+               f"relative gap depth {c.depth:.2f}, fit residual {100 * c.resid:.1f} % of depth"]
+    conf = (min(1.0, c.valid_frac / 0.9) * min(1.0, c.depth / 0.4)
+            * max(0.0, 1.0 - max(0.0, c.resid - 0.05) * 4) * (1.0 - 0.5 * ratio))
+    n_open = sum(k == "open" for k in c.end_kinds)
+    reasons.append(f"ends at: {c.end_kinds[0]}, {c.end_kinds[1]}")
+    if n_open:
+        # A joint runs from border to border: an open end means part of it is not seen, or the
+        # line is a mark, not a joint. Never report that with high confidence.
+        conf = min(conf * 0.6, 0.45)
+        reasons.append("one end fades out inside a sheet: the seam may continue unseen")
+    if any(k.startswith("unsure") for k in c.end_kinds):
+        # Where the seam meets the border is not clear: an end point off by more than a few px
+        # would put the weld's start or stop in the wrong place.
+        conf = min(conf * 0.6, 0.45)
+        reasons.append("two sheet borders seen equally well at one end: the end point is unsure")
+    if ratio > 0:
+        reasons.append(f"next candidate {100 * ratio:.0f} % as strong")
+    else:
+        reasons.append("no other candidate")
+    return float(np.clip(conf, 0.0, 1.0)), reasons
+
+
+def summary_px(c: Candidate, x0: int, y0: int) -> list[list[float]]:
+    """First, middle and last point of ``c`` in image px (ROI offset ``x0, y0`` added)."""
+    pts = c.points if c.points is not None else c.polyline
+    return np.round(pts[[0, len(pts) // 2, -1]] + [x0, y0], 1).tolist()
+
+
+def orient(pts: F64) -> F64:
+    """``pts`` ordered from the end nearer the left border (the top one for a vertical seam)."""
+    d = pts[-1] - pts[0]
+    if abs(d[0]) >= abs(d[1]):
+        return pts if d[0] >= 0 else pts[::-1].copy()
+    return pts if d[1] >= 0 else pts[::-1].copy()

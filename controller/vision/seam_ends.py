@@ -1,0 +1,230 @@
+"""Honest end points of the seam: where the sheets (or the image) end, and the last stretch before.
+
+:func:`end_offset` reads each side of the gap on lines parallel to the centreline and finds where a
+sheet border crosses them (a straight border: its crossings lie on one line); :func:`measure_tails`
+measures the last stretch before an end again with short profiles, which a border does not reach.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from controller.vision.seam_params import F64, DetectParams
+from controller.vision.seam_profiles import bilinear, fit_at
+
+_MIN_STEP = 0.25  # relative brightness step that marks a sheet border
+
+
+def measure_tails(grey: NDArray[np.uint8], lut: F64, guides: list[F64], ders: list[F64],
+                  w_med: float, p: DetectParams) -> list[F64]:
+    """Measure the last stretches of the seam (``guides``, extrapolated toward its ends) again.
+
+    ``ders`` are the guides' tangents (not normalised). The profiles of all stretches are fitted
+    together (one fit call is cheaper than one per end), then each stretch as below.
+
+    Profiles of full length there may be crossed by the sheet border, so the stretch was
+    extrapolated; an extrapolation over tens of pixels drifts on a curve. Short profiles (just
+    wider than the gap) are not reached by the border until the end itself: where they fit the
+    gap near the guide they replace it; within a profile length of the end (where even a short
+    profile may reach past the border) the guide is shifted by the offset measured last.
+    """
+    der = np.vstack(ders)
+    tang = der / (np.linalg.norm(der, axis=1, keepdims=True) + 1e-12)
+    nrms = np.column_stack([-tang[:, 1], tang[:, 0]])
+    hw = max(6.0, w_med / 2 + 5.0)
+    fits = fit_at(grey, lut, np.vstack(guides), nrms, p, half_width=hw)
+    out: list[F64] = []
+    i0 = 0
+    for guide in guides:
+        sl = slice(i0, i0 + len(guide))
+        i0 += len(guide)
+        fit = {k: fits[k][sl] for k in ("centre", "valid", "width")}
+        out.append(_tail(guide, nrms[sl], fit, hw, w_med))
+    return out
+
+
+def _tail(guide: F64, nrm: F64, fit: dict[str, NDArray[Any]], hw: float, w_med: float) -> F64:
+    """One stretch of :func:`measure_tails`: the guide corrected by the offsets measured."""
+    off = np.einsum("kd,kd->k", fit["centre"] - guide, nrm)
+    seg = np.linalg.norm(np.diff(guide, axis=0), axis=1)
+    to_end = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])
+    # A profile within its own length of the end may reach past the border: not used.
+    ok = (fit["valid"] & (np.abs(off) < 2.0) & (fit["width"] < 1.6 * w_med + 1.0)
+          & (to_end >= hw + 3.0))
+    if not ok.any():
+        return guide
+    idx = np.arange(len(guide), dtype=np.float64)
+    # Offsets from the guide along the stretch: measured where the profiles fit, linear between,
+    # the last measured one held to the end; then smoothed (one profile is noisy).
+    o = np.interp(idx, idx[ok], off[ok])
+    if len(o) >= 5:
+        o = _moving_line(o, min(len(o) // 2 * 2 - 1, 7))
+    return np.asarray(guide + nrm * o[:, None])
+
+
+def _moving_line(x: F64, win: int) -> F64:
+    """``savgol_filter(x, win, 1, mode="interp")`` (odd ``win`` <= len(x)) much faster.
+
+    A straight line fitted over a window is its mean at the centre: a moving average inside, and
+    at each end the line fitted to the first (last) ``win`` samples.
+    """
+    h = win // 2
+    out = np.array(x, dtype=np.float64)
+    out[h:len(x) - h] = np.convolve(x, np.full(win, 1.0 / win), mode="valid")
+    t = np.arange(win, dtype=np.float64) - h
+    for sl, ts in ((slice(0, win), slice(0, h)), (slice(len(x) - win, len(x)), slice(h + 1, win))):
+        seg = x[sl]
+        slope = float(t @ (seg - seg.mean())) / float(t @ t)
+        out[sl][ts] = seg.mean() + slope * t[ts]
+    return out
+
+
+def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
+               w_med: float) -> tuple[float, str]:
+    """Distance (px, along ``tang``) from ``e_pt`` to the seam's end, and what ends it there.
+
+    The kind is ``"sheet border"``, ``"image border"`` or ``"open"`` (the gap fades out inside a
+    sheet: a pen mark or scratch does that, a joint does not).
+
+    The end is where the sheets end. Each side of the gap is read on two lines parallel to the
+    centreline just outside the gap, and the gap itself on the centreline; where a sheet border
+    crosses a line the brightness steps (where the gap ends, its dark floor gives way to the
+    table). The border is straight across the seam, so its crossings of the lines lie on one line
+    in (offset across, distance along): :func:`_border_line` finds the steps that agree and
+    follows that line in to the centreline (a step that agrees with no other, such as the edge
+    of a table hole beyond the border, is not the end). When no line steps, the seam runs out of
+    the image (the end is the image border) or ends where the profiles stopped fitting.
+    """
+    H, W = grey.shape
+    nrm = np.array([-tang[1], tang[0]])
+    ks = np.arange(-28.0, 20.01, 0.5)
+    q = e_pt + np.outer(ks, tang)
+    delta = w_med / 2 + 2.5
+    offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
+    steps = [_side_crossings(grey, lut, q + o * nrm, ks) for o in offs]
+    k_line, unsure = _border_line(offs, steps)
+    k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
+    kind = "unsure sheet border" if unsure else "sheet border"
+    if k_line is not None:
+        k = k_line
+    elif k_border < 40.0:
+        # Profiles fail within a profile length of the image border: the seam runs out there.
+        k, kind = k_border, "image border"
+    else:
+        k, kind = 0.0, "open"
+    if k_border <= k:
+        k, kind = k_border, "image border"
+    return float(k), kind
+
+
+def _border_line(offs: tuple[float, ...],
+                 steps: list[list[float]]) -> tuple[float | None, bool]:
+    """Distance along the seam at which a straight border through the steps meets the centreline.
+
+    ``steps[i]`` are the step positions found on the line at offset ``offs[i]`` across the seam,
+    inner first; the first one on each line is where that line leaves its sheet, unless the
+    sheet and the table look alike there (then it is something beyond, such as a table hole).
+    Every pair of first steps defines a border line (crossing the seam at 15 degrees or more);
+    the one most lines agree with (within 1.5 px) wins, the inner one on a tie, and is fitted
+    to them. A lone step, seen on one line only, is taken only from the centreline (offset 0).
+    Also says whether the end is unsure: the winner is seen on two lines only and another line
+    seen on as many crosses the seam more than 3 px away (a mark meeting the seam at the border
+    can do that; the inner one is then no better a guess than the other).
+    """
+    firsts = [(o, s[0]) for o, s in zip(offs, steps, strict=True) if s]
+    best: tuple[int, float] | None = None  # (-agreeing lines, k at the centreline)
+    fits: list[tuple[int, float]] = []
+    for i in range(len(firsts)):
+        for j in range(i + 1, len(firsts)):
+            (oa, ka), (ob, kb) = firsts[i], firsts[j]
+            s = (kb - ka) / (ob - oa)
+            if abs(s) > 3.7:
+                continue
+            sel = [(o, k) for o, k in firsts if abs(k - ka - s * (o - oa)) <= 1.5]
+            o_arr, k_arr = np.array(sel).T
+            k0 = float(np.polyfit(o_arr, k_arr, 1)[1])
+            fits.append((-len(sel), k0))
+            if best is None or (-len(sel), k0) < best:
+                best = (-len(sel), k0)
+    if best is not None:
+        rivals = [k for n, k in fits if n == best[0] and abs(k - best[1]) > 3.0]
+        return best[1], best[0] == -2 and bool(rivals)
+    # A lone step counts only where the gap's own dark floor ends (a lone step beside the gap
+    # may be a texture stripe or a dot).
+    near = [k for o, k in firsts if o == 0]
+    return (near[0] if near else None), False
+
+
+def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> list[float]:
+    """Where the brightness along the line ``ps`` (at offsets ``ks``) steps sharply and lastingly.
+
+    From well inside the sheet (``ks > -14``) outward: a step is where the median brightness
+    over the next 6 px differs from the median over the last 6 px by at least 25 %. A dark
+    scratch or a texture stripe is a dip too narrow to move a median, and a gradual change of
+    light moves it too slowly. Each step is placed where the brightness passes half-way between
+    the two levels, and must be sharp (a few pixels of blur). All steps are returned, inner
+    first: which one is the sheet border is decided across lines (:func:`_border_line`).
+    """
+    val, inside = bilinear(grey, lut, ps[:, 0], ps[:, 1])
+    val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
+    # Only samples inside the image count (outside, the border pixels are repeated).
+    lim = int(np.argmin(inside)) if not inside.all() else len(ks)
+    n_in = int(np.sum(ks <= -14))
+    hold = 12  # samples (6 px) on each side of a step
+    if n_in < hold or lim - n_in < hold + 2:
+        return []
+    win = np.lib.stride_tricks.sliding_window_view(val[:lim], hold)
+    med = np.median(win, axis=1)  # med[i]: median of val[i:i + hold]
+    js = np.arange(n_in, lim - hold + 1)
+    behind, ahead = med[js - hold], med[js]
+    step = np.abs(ahead - behind)
+    big = np.concatenate([[0], (step > _MIN_STEP * np.maximum(np.maximum(behind, ahead), 1e-6))
+                          .astype(np.int8), [0]])
+    out: list[float] = []
+    for g0, g1 in zip(np.flatnonzero(np.diff(big) == 1), np.flatnonzero(np.diff(big) == -1),
+                      strict=True):
+        jj = int(g0) + int(np.argmax(step[g0:g1]))
+        j = int(js[jj])
+        lvl_in, lvl_out = float(behind[jj]), float(ahead[jj])
+        half = 0.5 * (lvl_in + lvl_out)
+        sgn = np.sign(lvl_in - half)
+        on_in = sgn * (val - half) > 0
+        # The half-level crossing nearest j: back to the last sample on the inner side, or on
+        # to the first one past it.
+        k = j
+        if on_in[k]:
+            while k + 1 < lim and on_in[k + 1]:
+                k += 1
+        else:
+            while k > 0 and not on_in[k]:
+                k -= 1
+            if not on_in[k]:
+                continue
+        if k + 1 >= lim:
+            continue
+        amp = abs(lvl_in - half)
+        lo_i, hi_i = max(k - 7, 0), min(k + 8, lim - 1)
+        if sgn * (val[lo_i] - half) < 0.25 * amp or sgn * (val[hi_i] - half) > -0.25 * amp:
+            continue
+        # Off the sheet for good: the brightness never comes back past half-way (a dot or a
+        # glare band on the sheet is left again; the table beyond a border is not).
+        if np.any(sgn * (val[k + 2:lim] - half) > 0.2 * amp):
+            continue
+        v0, v1 = val[k], val[k + 1]
+        frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
+        out.append(float(ks[k] + frac * (ks[k + 1] - ks[k])))
+    return out
+
+
+def _border_crossing(e_pt: F64, tang: F64, W: int, H: int, default: float) -> float:
+    """Distance along ``tang`` from ``e_pt`` (inside the image) to the image border (px)."""
+    ts = []
+    for lo, hi, x, d in ((-0.5, W - 0.5, e_pt[0], tang[0]), (-0.5, H - 0.5, e_pt[1], tang[1])):
+        if d > 1e-9:
+            ts.append((hi - x) / d)
+        elif d < -1e-9:
+            ts.append((lo - x) / d)
+    return float(min(ts)) if ts else default

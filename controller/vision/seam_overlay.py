@@ -1,0 +1,61 @@
+"""A picture of a seam detection for a person: the seam, its end points and the confidence."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from controller.vision.seam_detect import SeamDetection
+
+_SHIFT = 4  # cv2 drawing with sub-pixel coordinates: 4 fractional bits
+
+
+def _fixed(pts: NDArray[Any]) -> NDArray[np.int32]:
+    # Pixel centres at integer coordinates, as cv2 drawing expects.
+    return np.round(np.asarray(pts, dtype=np.float64) * (1 << _SHIFT)).astype(np.int32)
+
+
+def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = None,
+                 message: str | None = None, max_width: int = 1600) -> NDArray[np.uint8]:
+    """BGR uint8 picture: ``image`` dimmed, the seam in green, ends in orange, text on top.
+
+    ``detection`` may be None (a failed detection), then ``message`` says why. The picture is
+    shrunk to at most ``max_width`` px wide (drawing is done at full resolution first).
+    """
+    img = image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    out = (img.astype(np.float32) * 0.75).astype(np.uint8)
+    H, W = out.shape[:2]
+    scale_line = max(1, int(round(W / 800)))
+    lines: list[str] = []
+    if detection is not None:
+        pts = _fixed(detection.points_px)
+        cv2.polylines(out, [pts.reshape(-1, 1, 2)], False, (40, 230, 40), scale_line,
+                      cv2.LINE_AA, _SHIFT)
+        for i, e in enumerate(detection.endpoints_px):
+            c = tuple(int(v) for v in _fixed(e))
+            cv2.circle(out, c, 12 * scale_line << _SHIFT, (0, 140, 255), scale_line,
+                       cv2.LINE_AA, _SHIFT)
+            cv2.putText(out, "start" if i == 0 else "end",
+                        (int(e[0]) + 14 * scale_line, int(e[1]) - 14 * scale_line),
+                        cv2.FONT_HERSHEY_SIMPLEX, 0.6 * scale_line, (0, 140, 255), scale_line,
+                        cv2.LINE_AA)
+        lines.append(f"seam found, confidence {detection.confidence:.2f}")
+        lines += detection.reasons
+    if message:
+        lines.append(message)
+    y = 40 * scale_line
+    for text in lines:
+        colour = (40, 230, 40) if detection is not None else (60, 60, 255)
+        cv2.putText(out, text[:110], (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
+                    0.7 * scale_line, (0, 0, 0), 4 * scale_line, cv2.LINE_AA)
+        cv2.putText(out, text[:110], (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
+                    0.7 * scale_line, colour, scale_line, cv2.LINE_AA)
+        y += 32 * scale_line
+    if max_width < W:
+        f = max_width / W
+        out = np.asarray(cv2.resize(out, (max_width, int(round(H * f))),
+                                    interpolation=cv2.INTER_AREA), np.uint8)
+    return np.asarray(out, dtype=np.uint8)

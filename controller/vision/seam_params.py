@@ -1,0 +1,72 @@
+"""Tuning of the seam detector and the record of one seam candidate as it goes through the steps.
+
+:class:`DetectParams` is public (re-exported by :mod:`controller.vision.seam_detect`);
+:class:`Candidate`
+is filled in by the coarse search (:mod:`controller.vision.seam_coarse`), the centreline
+(:mod:`controller.vision.seam_centreline`) and read by the decision
+(:mod:`controller.vision.seam_decision`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class DetectParams:
+    """Tuning of :func:`detect_seam` (pixel values at full resolution unless named ``coarse``).
+
+    ``gamma``: camera response used to linearise grey levels (1.0 for a linear camera).
+    ``coarse_factor``: shrink factor of the search image (0: automatic, ~560 px wide).
+    ``valley_r_coarse``: distance (coarse px) from the valley centre to where both sides are read.
+    ``min_depth``: relative valley depth that marks a candidate pixel (0..1).
+    ``min_length_px``: shortest candidate kept (px along the curve); ``piece_length_px``: shortest
+    piece of valley kept to be joined with others that continue it across at most
+    ``piece_join_px`` (a faint gap breaks up where it dips under ``min_depth``).
+    ``step_px``: spacing of the refinement profiles along the seam; ``half_width_px``: half
+    length of each profile. ``max_gap_px``: widest gap accepted. ``ambiguity_ratio``: a second
+    candidate at least this strong relative to the best makes the result ambiguous.
+    ``min_confidence``: below this the detection is refused (:class:`SeamNotFound`); an open end
+    caps the confidence at 0.45, so a seam not seen to a border is refused by default.
+    """
+
+    gamma: float = 2.2
+    coarse_factor: int = 0
+    valley_r_coarse: int = 3
+    min_depth: float = 0.2
+    min_length_px: float = 300.0
+    step_px: float = 4.0
+    half_width_px: float = 14.0
+    profile_step_px: float = 1.0
+    fit_iterations: int = 7
+    max_gap_px: float = 16.0
+    min_profile_depth: float = 0.25
+    bridge_px: float = 200.0
+    join_px: float = 200.0
+    piece_length_px: float = 100.0
+    piece_join_px: float = 48.0
+    ambiguity_ratio: float = 0.6
+    min_confidence: float = 0.5
+    max_candidates: int = 4
+
+
+@dataclass
+class Candidate:
+    """One seam candidate: the coarse polyline, then the refined centreline and its scores."""
+
+    polyline: F64  # ordered coarse centreline, full-res px
+    coarse_score: float
+    length_px: float
+    points: F64 | None = None
+    width: F64 | None = None
+    depth: float = 0.0
+    valid_frac: float = 0.0
+    resid: float = 0.0
+    score: float = 0.0
+    end_kinds: tuple[str, str] = ("open", "open")
+    why_rejected: str = ""

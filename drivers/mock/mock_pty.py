@@ -1,0 +1,166 @@
+"""The mock controller's transport: a real pseudo-terminal served by a thread.
+
+:class:`MockPty` serves the protocol server (:class:`drivers.mock.mock_server.MockServer`) on
+``os.openpty`` behind a stable symlink path (:meth:`MockPty.serve_pty`), so the client's pyserial
+code runs for real. A disconnect (:meth:`MockPty.disconnect`, or the ``disconnect`` fault) opens a
+new pty behind the same path; the controller state survives it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import select
+import tempfile
+import threading
+import time
+import tty
+from pathlib import Path
+from typing import Any, Self
+
+from controller.errors import ConfigError
+from drivers.mock.mock_server import MockServer
+
+
+class MockPty(MockServer):
+    """The mock controller served on a pseudo-terminal in a thread; stop it with :meth:`stop`."""
+
+    def __init__(self, **options: Any) -> None:
+        """Options as :class:`~drivers.mock.mock_link.MockLink` takes them."""
+        super().__init__(**options)
+        self._stop = threading.Event()
+        self._master = self._slave = -1
+        self.link_path: str | None = None
+        self._tmpdir: str | None = None
+        self._swap_request = threading.Event()
+        self._swap_done = threading.Event()
+
+    def _drop_link(self) -> None:
+        self._swap_done.clear()
+        self._swap_request.set()
+
+    def disconnect(self, timeout_s: float = 2.0, wait: bool = True) -> None:
+        """Drop the link: close the pty and open a new one behind the same symlink path.
+
+        The controller state (session, remembered reply, motion) survives, as when a cable is
+        pulled and plugged back; replies not yet written are lost. Only for a mock served with
+        :meth:`serve_pty`. ``wait=False`` returns at once (for use inside the mock's own thread).
+        """
+        if self._thread is None:
+            raise ConfigError("disconnect() needs a mock served on a pty (serve_pty)")
+        self._swap_done.clear()
+        self._swap_request.set()
+        self._wake()
+        if wait and not self._swap_done.wait(timeout_s):
+            raise ConfigError("mock controller did not swap its pty in time")
+
+    # ---- serving on a pseudo-terminal ----------------------------------------------------------
+
+    def _open_pty(self) -> str:
+        master, slave = os.openpty()
+        tty.setraw(slave)
+        os.set_blocking(master, False)
+        self._master, self._slave = master, slave
+        return os.ttyname(slave)
+
+    def _point_link(self, target: str) -> None:
+        assert self.link_path is not None
+        tmp = f"{self.link_path}.{os.getpid()}.tmp"
+        if os.path.lexists(tmp):
+            os.unlink(tmp)
+        os.symlink(target, tmp)
+        os.replace(tmp, self.link_path)
+
+    def serve_pty(self, link_path: str | None = None) -> str:
+        """Serve on a new pseudo-terminal in a thread; return the stable symlink path to open.
+
+        ``link_path`` (default: a new temporary directory's ``robot``) must not be an existing
+        non-symlink file. Stop with :meth:`stop`.
+        """
+        if self._thread is not None:
+            raise ConfigError("this mock controller is already serving")
+        if link_path is None:
+            self._tmpdir = tempfile.mkdtemp(prefix="seamguide-mock-")
+            link_path = str(Path(self._tmpdir) / "robot")
+        lp = Path(link_path)
+        if lp.exists() and not lp.is_symlink():
+            raise ConfigError(f"--link {link_path!r} exists and is not a symlink; choose another "
+                              "path (the mock makes a symlink to its pseudo-terminal there)")
+        self.link_path = str(lp.absolute())
+        self._point_link(self._open_pty())
+        self._wake_r, self._wake_w = os.pipe()
+        os.set_blocking(self._wake_r, False)
+        os.set_blocking(self._wake_w, False)
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._serve, name="mock-controller", daemon=True)
+        self._thread.start()
+        return self.link_path
+
+    def _serve(self) -> None:
+        pending = b""
+        while not self._stop.is_set():
+            pending += self.run_due()
+            if self._swap_request.is_set():  # after run_due: replies not yet written are lost
+                self._swap_request.clear()
+                with self._lock:
+                    old = (self._master, self._slave)
+                    name = self._open_pty()  # before closing: a new /dev/pts number
+                    for fd in old:
+                        os.close(fd)
+                    pending = b""
+                    self._splitter.clear()
+                    self._point_link(name)
+                    self.action_log.append("disconnect")
+                self._swap_done.set()
+            if pending:
+                try:
+                    n = os.write(self._master, pending)
+                    pending = pending[n:]
+                except BlockingIOError:
+                    pass
+                except OSError:
+                    pending = b""
+            due = self.next_due()
+            now = time.monotonic()
+            wait = 0.2 if due is None else max(0.0, min(0.2, due - now))
+            if pending:
+                wait = min(wait, 0.005)
+            try:
+                ready, _, _ = select.select([self._master, self._wake_r], [], [], wait)
+            except (OSError, ValueError):
+                continue
+            if self._wake_r in ready:
+                with contextlib.suppress(BlockingIOError):
+                    os.read(self._wake_r, 4096)
+            if self._master in ready:
+                try:
+                    data = os.read(self._master, 4096)
+                except (BlockingIOError, OSError):
+                    data = b""
+                if data:
+                    self.receive(data)
+
+    def stop(self) -> None:
+        """Stop serving and remove the symlink (and the temporary directory it made)."""
+        if self._thread is None:
+            return
+        self._stop.set()
+        self._wake()
+        self._thread.join(timeout=5.0)
+        self._thread = None
+        for fd in (self._master, self._slave, self._wake_r, self._wake_w):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+        self._master = self._slave = self._wake_r = self._wake_w = -1
+        if self.link_path and os.path.islink(self.link_path):
+            os.unlink(self.link_path)
+        if self._tmpdir:
+            with contextlib.suppress(OSError):
+                os.rmdir(self._tmpdir)
+            self._tmpdir = None
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

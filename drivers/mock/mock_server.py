@@ -1,0 +1,280 @@
+"""The mock controller's protocol server: each SGRS/1 request dispatched to the simulated robot.
+
+:class:`MockServer` is the RAPID server's logic (``drivers/abb/rapid/SGSERVER.mod``,
+``docs/protocol.md``) on the simulated robot (:class:`drivers.mock.mock_robot.MockRobot`): a
+received
+line is decoded with the sans-I/O codec, a repeated sequence number gets the remembered reply
+(never a second execution), a request without a session is refused, and every request ``XY`` is
+handled by ``_cmd_XY``, which returns the reply body (an ``OK`` or an ``ER`` with the protocol's
+error code). Work that must follow the reply (the start of a motion) is appended to ``after``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from controller.errors import InputError, ProtocolError, ReachabilityError
+from controller.geometry.kinematics import check_joint_limits, flange_pose, solve_ik
+from controller.geometry.poses import pos_quat_from_pose, pose_error, pose_from_pos_quat
+from drivers.abb import abb_codec as codec
+from drivers.mock.mock_robot import MockRobot
+
+F64 = NDArray[np.float64]
+
+_JOINT_SPEED_DEG_S = 100.0
+
+
+class MockServer(MockRobot):
+    """The SGRS/1 request handlers of the mock controller, on the simulated robot."""
+
+    # ---- the RAPID server's logic -------------------------------------------------------------
+
+    def _process(self, line: bytes) -> None:
+        try:
+            frame = codec.decode_frame(line)
+            if frame.kind != "Q" or frame.seq == 0:
+                raise ProtocolError("not a request")
+        except ProtocolError:
+            self.link_stats["bad_lines"] += 1
+            self._send("A", 0, codec.error_body(10, "bad line"), self.delay_s)
+            return
+        self.link_stats["requests"] += 1
+        if self._last_seq is not None and frame.seq == self._last_seq:
+            # Duplicate suppression: the remembered reply, never a second execution.
+            self.link_stats["duplicates_suppressed"] += 1
+            self._send("A", frame.seq, self._last_reply, self.delay_s)
+            return
+        after: list[Callable[[], None]] = []
+        body = self._execute(frame.fields, after)
+        if self.session is not None:
+            self._last_seq, self._last_reply = frame.seq, body
+        self._send("A", frame.seq, body, self.delay_s)
+        for fn in after:
+            fn()
+
+    def _execute(self, f: list[str], after: list[Callable[[], None]]) -> str:
+        cmd, args = f[0], f[1:]
+        handler = getattr(self, f"_cmd_{cmd}", None) if cmd.isalpha() and len(cmd) == 2 else None
+        if handler is None:
+            return codec.error_body(11, f"unknown request {cmd[:8]}")
+        if self.session is None and cmd not in ("HI", "ID", "ST"):
+            return codec.error_body(13, "no session")
+        try:
+            result: str = handler(args, after)
+            return result
+        except ProtocolError as err:
+            return codec.error_body(12, f"bad arguments to {cmd}: {str(err)[:20]}")
+
+    @staticmethod
+    def _nargs(args: list[str], n: int, cmd: str) -> None:
+        if len(args) != n:
+            raise ProtocolError(f"{cmd} takes {n}")
+
+    def _cmd_HI(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 1, "HI")
+        s = codec.parse_int(a[0], "session", 1, 999)
+        if s != self.session:
+            self.session, self._last_seq, self._last_mid = s, None, 0
+        return codec.ok_body(str(self.boot), str(self._status_mid), self._status_state)
+
+    def _cmd_ID(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 0, "ID")
+        return codec.ok_body(codec.PROTOCOL_NAME, str(codec.PROTOCOL_VERSION), "IRB2400",
+                             str(self.capacity))
+
+    def _cmd_RJ(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 0, "RJ")
+        return codec.ok_body(codec.fmt_joints(self._current()[0]))
+
+    def _cmd_RP(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 0, "RP")
+        self._snapshot = self._current()[1]
+        return codec.ok_body(codec.fmt_position(self._snapshot[:3, 3]))
+
+    def _cmd_RQ(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 0, "RQ")
+        snap = self._snapshot if self._snapshot is not None else self._current()[1]
+        return codec.ok_body(codec.fmt_quat(pos_quat_from_pose(snap)[1]))
+
+    @staticmethod
+    def _quat(a: list[str], name: str) -> F64:
+        q = codec.parse_numbers(a, 4, name)
+        if abs(float(np.linalg.norm(q)) - 1.0) > 1e-3:
+            raise ProtocolError(f"{name} not unit")
+        return q
+
+    def _cmd_TP(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        p = codec.parse_numbers(a, 3, "tool position")
+        self._tool = pose_from_pos_quat(p, pos_quat_from_pose(self._tool)[1])
+        return codec.ok_body()
+
+    def _cmd_TO(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        q = self._quat(a, "tool quaternion")
+        self._tool = pose_from_pos_quat(self._tool[:3, 3], q)
+        return codec.ok_body()
+
+    def _cmd_SV(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        v, z = codec.parse_numbers(a, 2, "speed zone")
+        if not (0 < v <= 1000 and 0 <= z <= 200):
+            return codec.error_body(50, "speed or zone out of range")
+        self._speed_mm_s, self._zone_mm = float(v), float(z)
+        return codec.ok_body()
+
+    def _slot(self, text: str) -> int | None:
+        k = codec.parse_int(text, "slot")
+        return k if k <= self.capacity else None
+
+    def _cmd_XP(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 4, "XP")
+        k = self._slot(a[0])
+        if k is None:
+            return codec.error_body(24, "slot out of range")
+        self._slot_pos[k] = codec.parse_numbers(a[1:], 3, "target position")
+        self._slot_joints.pop(k, None)
+        if k in self._slot_quat:
+            self._solve_slot(k)
+        return codec.ok_body()
+
+    def _cmd_XO(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 5, "XO")
+        k = self._slot(a[0])
+        if k is None:
+            return codec.error_body(24, "slot out of range")
+        self._slot_quat[k] = self._quat(a[1:], "target quaternion")
+        self._solve_slot(k)
+        return codec.ok_body()
+
+    def _cmd_XR(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 1, "XR")
+        k = self._slot(a[0])
+        if k is None:
+            return codec.error_body(24, "slot out of range")
+        if k < 2 or (k - 1) not in self._slot_quat:
+            return codec.error_body(21, "no orientation to repeat")
+        self._slot_quat[k] = self._slot_quat[k - 1].copy()
+        self._solve_slot(k)
+        return codec.ok_body()
+
+    def _solve_slot(self, k: int) -> None:
+        """IK of a completed path slot, near the previous point (the real server does it in RW).
+
+        Done at upload so that RW answers at once; the result is cached with the tool it used.
+        """
+        T = self._target(k) if k > 0 else None
+        if T is None:
+            return
+        near = self._slot_joints.get(k - 1, (None, None))[1] if k > 1 else self._current()[0]
+        try:
+            j = solve_ik(self._robot, T, near_deg=near)
+        except ReachabilityError:
+            j = None
+        self._slot_joints[k] = (self._tool.copy(), j)
+
+    def _cmd_PN(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 1, "PN")
+        n = codec.parse_int(a[0], "path length", 1, 9999)
+        if n > self.capacity:
+            return codec.error_body(23, f"path of {n} exceeds buffer {self.capacity}")
+        for d in (self._slot_pos, self._slot_quat, self._slot_joints):
+            for k in [k for k in d if k > 0]:
+                del d[k]
+        self._path_n = n
+        return codec.ok_body(str(n))
+
+    def _motion_preamble(self, a: list[str], n: int, cmd: str) -> tuple[int, str | None]:
+        self._nargs(a, n, cmd)
+        mid = codec.parse_int(a[0], "motion id", 1, 9999)
+        if self._motion is not None:
+            return mid, codec.error_body(20, "busy: a motion is running")
+        if mid == self._last_mid:
+            return mid, codec.error_body(25, f"motion {mid} already executed")
+        return mid, None
+
+    def _cmd_MJ(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        mid, err = self._motion_preamble(a, 7, "MJ")
+        if err:
+            return err
+        j = codec.parse_numbers(a[1:], 6, "joints")
+        try:
+            j = check_joint_limits(self._robot, j)
+        except (ReachabilityError, InputError):
+            return codec.error_body(31, "joints outside limits")
+        j0, T0 = self._current()
+        T1 = flange_pose(self._robot, j)
+        dur = max(pose_error(T0, T1)[0] / self._speed_mm_s,
+                  float(np.max(np.abs(j - j0))) / _JOINT_SPEED_DEG_S)
+        self._start(mid, "move_joints", [(j, T1, dur)], after, target=[float(v) for v in j])
+        return codec.ok_body(str(mid))
+
+    def _cmd_ML(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        mid, err = self._motion_preamble(a, 1, "ML")
+        if err:
+            return err
+        T1 = self._target(0)
+        if T1 is None:
+            return codec.error_body(21, "target slot 0 incomplete")
+        j0, T0 = self._current()
+        try:
+            j1 = solve_ik(self._robot, T1, near_deg=j0)
+        except ReachabilityError:
+            return codec.error_body(30, "target unreachable")
+        self._slot_pos.pop(0, None)
+        self._slot_quat.pop(0, None)
+        self._start(mid, "move_linear", [(j1, T1, self._seg_time(T0, T1))], after,
+                    target=[float(v) for v in T1[:3, 3]])
+        return codec.ok_body(str(mid))
+
+    def _cmd_RW(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        mid, err = self._motion_preamble(a, 2, "RW")
+        if err:
+            return err
+        arc = codec.parse_int(a[1], "arc", 0, 1) == 1
+        n = self._path_n
+        targets = [self._target(k) for k in range(1, n + 1)]
+        if n == 0 or any(T is None for T in targets):
+            return codec.error_body(22, "path incomplete")
+        j_prev, T_prev = self._current()
+        segs = []
+        for i, T in enumerate(targets, start=1):
+            assert T is not None
+            cached = self._slot_joints.get(i)
+            if cached is not None and np.array_equal(cached[0], self._tool):
+                j = cached[1]
+            else:
+                try:
+                    j = solve_ik(self._robot, T, near_deg=j_prev)
+                except ReachabilityError:
+                    j = None
+            if j is None:
+                return codec.error_body(30, f"path point {i} unreachable")
+            segs.append((j, T, self._seg_time(T_prev, T)))
+            j_prev, T_prev = j, T
+        self._start(mid, "weld", segs, after, arc=arc, points=n)
+        return codec.ok_body(str(mid))
+
+    def _cmd_AB(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 0, "AB")
+        self._arc = False  # arc output off FIRST (always written, as SetDO does)
+        self.action_log.append("arc_off")
+        self.action_log.append("stop")
+        m = self._motion
+        if m is not None:
+            j, T = self._current()
+            self._joints = j
+            self._finish(m, "A", 41, "aborted")
+            self._event(f"FL {m['mid']} 41 {m['index'] + 1}")
+        return codec.ok_body()
+
+    def _cmd_ST(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 0, "ST")
+        return codec.ok_body("1" if self._motion is not None else "0", "1" if self._arc else "0",
+                             str(self._status_mid), self._status_state,
+                             str(self._status_index), str(self._error), self.cycle_job or "-")
+
+    def _cmd_CK(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 0, "CK")
+        self.cycle_job = None
+        return codec.ok_body()
