@@ -58,7 +58,8 @@ def open_mock_robot(url: str, *, limits: Any = None, timeout_s: float = 5.0,
     The client's ack timeout and status poll are set from the mock's simulated speeds unless given.
     The mock is stopped when the robot is closed. Raises :class:`ConfigError` for bad options.
     """
-    from drivers.abb.abb_link import AbbRobot, line_time_s
+    from drivers.abb.abb_link import line_time_s
+    from drivers.abb.abb_robot import AbbRobot
 
     parsed = urllib.parse.urlsplit(url)
     if parsed.netloc or parsed.path not in ("", "/"):

@@ -1,0 +1,157 @@
+"""The robot's command value objects and the safety limits they are checked against.
+
+One frozen value object per robot instruction (RAPID ``MoveAbsJ``, ``MoveL``, the weld path, the
+weld run, ``tooldata``). The constructor rejects a wrong joint count, a non-finite number, a joint
+outside its limits; ``check`` runs the safety checks (workspace box, speed, reachability) against
+:class:`SafetyLimits` before a byte is encoded. Units: mm, mm/s, controller degrees.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from controller.errors import ConfigError, InputError, SafetyError
+from controller.geometry.kinematics import check_joint_limits, flange_pose, irb2400, solve_ik
+from controller.geometry.poses import check_pose, invert
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SafetyLimits:
+    """Workspace box of the TCP in the base frame (mm) and the maximum TCP speed (mm/s).
+
+    Every motion target, each path point too, is checked against these before it is encoded.
+    """
+
+    workspace_min_mm: tuple[float, float, float] = (-1800.0, -1800.0, -400.0)
+    workspace_max_mm: tuple[float, float, float] = (1800.0, 1800.0, 2100.0)
+    max_speed_mm_s: float = 250.0
+
+    def __post_init__(self) -> None:
+        lo = np.asarray(self.workspace_min_mm, dtype=np.float64)
+        hi = np.asarray(self.workspace_max_mm, dtype=np.float64)
+        if lo.shape != (3,) or hi.shape != (3,) or not np.all(np.isfinite(lo)) \
+                or not np.all(np.isfinite(hi)) or np.any(lo >= hi):
+            raise ConfigError(f"safety workspace box must be min < max, 3 finite values each "
+                              f"(mm), got {self.workspace_min_mm} .. {self.workspace_max_mm}")
+        if not np.isfinite(self.max_speed_mm_s) or self.max_speed_mm_s <= 0:
+            raise ConfigError(f"safety max_speed_mm_s must be > 0, got {self.max_speed_mm_s}")
+
+    def check_point(self, p_mm: ArrayLike, name: str) -> None:
+        """Raise :class:`SafetyError` naming ``name`` if the point (mm, base) is outside the box."""
+        p = np.asarray(p_mm, dtype=np.float64)
+        lo = np.asarray(self.workspace_min_mm)
+        hi = np.asarray(self.workspace_max_mm)
+        if not np.all(np.isfinite(p)) or np.any(p < lo) or np.any(p > hi):
+            raise SafetyError(
+                f"{name} at ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm is outside the safety "
+                f"workspace box {list(self.workspace_min_mm)} .. {list(self.workspace_max_mm)} "
+                "mm; nothing was sent", position_mm=[float(v) for v in p])
+
+    def check_speed(self, speed_mm_s: float, name: str) -> None:
+        """Raise :class:`SafetyError` when the speed is not in (0, max_speed_mm_s]."""
+        if not np.isfinite(speed_mm_s) or not 0 < speed_mm_s <= self.max_speed_mm_s:
+            raise SafetyError(f"{name}: speed {speed_mm_s} mm/s is not in (0, "
+                              f"{self.max_speed_mm_s}] mm/s (safety limit); nothing was sent",
+                              speed_mm_s=float(speed_mm_s))
+
+
+def _speed(v: object, name: str) -> float:
+    try:
+        s = float(v)  # type: ignore[arg-type]
+    except (TypeError, ValueError) as err:
+        raise InputError(f"{name} must be a speed in mm/s, got {v!r}") from err
+    if not np.isfinite(s) or s <= 0:
+        raise InputError(f"{name} must be a positive finite speed in mm/s, got {v!r}")
+    return s
+
+
+@dataclass(frozen=True)
+class ToolData:
+    """RAPID ``tooldata`` (tframe only): the TCP in the flange frame, ``T_flange_tcp`` (mm)."""
+
+    T_flange_tcp: F64
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "T_flange_tcp", check_pose(self.T_flange_tcp, "T_flange_tcp"))
+
+
+@dataclass(frozen=True)
+class MoveJoints:
+    """RAPID ``MoveAbsJ``: controller axes 1-6 in degrees, TCP speed in mm/s, fine point."""
+
+    joints_deg: F64
+    speed_mm_s: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "joints_deg",
+                           check_joint_limits(irb2400(), self.joints_deg, "move_joints target"))
+        object.__setattr__(self, "speed_mm_s", _speed(self.speed_mm_s, "move_joints speed"))
+
+    def check(self, limits: SafetyLimits, tool: ToolData) -> None:
+        """Safety check: the TCP at the target inside the box, the speed within the limit."""
+        T_base_tcp = flange_pose(irb2400(), self.joints_deg) @ tool.T_flange_tcp
+        limits.check_point(T_base_tcp[:3, 3], "move_joints target (TCP)")
+        limits.check_speed(self.speed_mm_s, "move_joints")
+
+
+@dataclass(frozen=True)
+class MoveLinear:
+    """RAPID ``MoveL`` of the active tool to ``T_base_tcp`` (mm, wobj0), speed in mm/s, fine."""
+
+    T_base_tcp: F64
+    speed_mm_s: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "T_base_tcp", check_pose(self.T_base_tcp, "move_linear target"))
+        object.__setattr__(self, "speed_mm_s", _speed(self.speed_mm_s, "move_linear speed"))
+
+    def check(self, limits: SafetyLimits, tool: ToolData) -> None:
+        """Box, speed, and IK reachability (raises ReachabilityError / JointLimitError)."""
+        limits.check_point(self.T_base_tcp[:3, 3], "move_linear target")
+        limits.check_speed(self.speed_mm_s, "move_linear")
+        solve_ik(irb2400(), self.T_base_tcp @ invert(tool.T_flange_tcp), name="move_linear target")
+
+
+@dataclass(frozen=True)
+class PathTargets:
+    """A weld path: TCP poses ``T_base_tcp`` (mm, wobj0), in order; uploaded, never truncated."""
+
+    targets: tuple[F64, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.targets) == 0:
+            raise InputError("upload_path: the path has no points")
+        object.__setattr__(self, "targets", tuple(
+            check_pose(T, f"path point {i + 1}") for i, T in enumerate(self.targets)))
+
+    def check(self, limits: SafetyLimits, tool: ToolData, capacity: int) -> None:
+        """Length within ``capacity``, every point in the box and reachable; names the point."""
+        if len(self.targets) > capacity:
+            raise SafetyError(f"the path has {len(self.targets)} points, the controller buffer "
+                              f"holds {capacity}; split the weld, nothing was sent",
+                              points=len(self.targets), capacity=capacity)
+        T_tcp_flange = invert(tool.T_flange_tcp)
+        near = None
+        for i, T in enumerate(self.targets):
+            limits.check_point(T[:3, 3], f"path point {i + 1}")
+            near = solve_ik(irb2400(), T @ T_tcp_flange, near_deg=near, name=f"path point {i + 1}")
+
+
+@dataclass(frozen=True)
+class WeldRun:
+    """Run the weld pass over the uploaded path at ``speed_mm_s``, arc output on or dry."""
+
+    speed_mm_s: float
+    arc_output: bool = True
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "speed_mm_s", _speed(self.speed_mm_s, "weld speed"))
+
+    def check(self, limits: SafetyLimits) -> None:
+        """The weld speed within the safety limit."""
+        limits.check_speed(self.speed_mm_s, "run_weld")
