@@ -209,3 +209,52 @@ def test_several_views_at_once_match_one_by_one_and_raise_in_order(cases):
         detect_seams([images[0], blank])
     with pytest.raises(InputError, match="regions of interest"):
         detect_seams(images, rois=[None])
+
+
+def _expected_kinds(det, r):
+    """The true end kinds of ``r`` in the order of ``det.points_px``."""
+    kinds = ["joint_end" if e else "image_border" for e in r.ends_in_image]
+    first = r.seam_px[0]
+    if np.linalg.norm(det.points_px[0] - first) > np.linalg.norm(det.points_px[-1] - first):
+        kinds = kinds[::-1]
+    return kinds
+
+
+def test_ends_say_what_they_are(cases):
+    for r in cases.values():
+        det = detect_seam(r.image)
+        assert list(det.end_kinds) == _expected_kinds(det, r)
+        assert [e["kind"] for e in det.ends] == list(det.end_kinds)
+        assert np.allclose([e["px"] for e in det.ends], det.points_px[[0, -1]])
+        d = det.to_dict()
+        assert [e["kind"] for e in d["ends"]] == list(det.end_kinds)
+
+
+def test_a_seam_that_leaves_the_image_is_returned_with_image_border_ends():
+    sc = make_scene("straight", 4, "easy", length_mm=250.0)
+    T = suggest_view_poses(sc, CAM, standoff_mm=150.0)[0].copy()
+    r = render(sc, CAM, T, seed=4)
+    assert not any(r.ends_in_image)
+    det = detect_seam(r.image)
+    assert list(det.end_kinds) == ["image_border", "image_border"]
+    assert dist_to_polyline(det.points_px, r.seam_px).max() < 2.0
+    # One end in view, the other out: the kinds follow the seam order.
+    T2 = T.copy()
+    t = (r.seam_points_mm[-1] - r.seam_points_mm[0])
+    T2[:3, 3] += t / np.linalg.norm(t) * 150.0
+    r2 = render(sc, CAM, T2, seed=4)
+    assert r2.ends_in_image.count(True) == 1
+    det2 = detect_seam(r2.image)
+    assert sorted(det2.end_kinds) == ["image_border", "joint_end"]
+    assert list(det2.end_kinds) == _expected_kinds(det2, r2)
+
+
+def test_occluded_spans_are_arc_length_ranges_of_the_bridged_points():
+    from controller.vision.seam_decision import spans_of
+
+    pts = np.column_stack([np.arange(0.0, 100.0, 4.0), np.zeros(25)])
+    mask = np.zeros(25, bool)
+    mask[5:8] = True
+    mask[20:22] = True
+    assert spans_of(pts, mask) == [(16.0, 32.0), (76.0, 88.0)]
+    assert spans_of(pts, np.zeros(25, bool)) == []

@@ -19,9 +19,11 @@ def register(sub: Any) -> None:
     p = sub.add_parser(
         "detect", help="find the seam in one image",
         description="Find the weld seam in one image. Prints JSON: seam_px (the sub-pixel "
-        "centreline [[u, v], ...] in the distorted image, ordered end to end), endpoints_px, "
+        "centreline [[u, v], ...] in the distorted image, ordered end to end), ends (in the "
+        "same order: [{\"px\": [u, v], \"kind\": \"joint_end\" | \"image_border\"}, ...]), "
+        "occluded_spans_px (arc-length ranges bridged through tack welds or spatter), "
         "confidence (0..1) and reasons. Exit code 9 when no seam is found, 10 when two "
-        "candidates are too alike to choose.")
+        "candidates are too alike to choose. Contract: docs/seam-detect.md.")
     p.add_argument("image", help="image file (PNG, JPEG, ...; 8-bit greyscale or colour)")
     p.add_argument("--calibration", help="calibration file: checks that the image size matches")
     p.add_argument("--output", help="write the JSON here instead of stdout")

@@ -116,6 +116,8 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
     body = pts_run[lo:hi]
     pts_run = np.vstack([parts[0], body, parts[1]])
     c.points = pts_run
+    c.bridged = np.concatenate([np.zeros(len(parts[0]), bool), ~ok[lo:hi],
+                                np.zeros(len(parts[1]), bool)])
     wb = w_run[lo:hi]
     c.width = np.concatenate([np.full(len(parts[0]), wb[0]), wb, np.full(len(parts[1]), wb[-1])])
     c.depth = depth_med

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from controller.vision.seam_params import F64, Candidate
+
+JOINT_END = "joint_end"
+IMAGE_BORDER = "image_border"
 
 
 def rate_confidence(c: Candidate, ratio: float) -> tuple[float, list[str]]:
@@ -40,8 +44,46 @@ def summary_px(c: Candidate, x0: int, y0: int) -> list[list[float]]:
 
 
 def orient(pts: F64) -> F64:
-    """``pts`` ordered from the end nearer the left border (the top one for a vertical seam)."""
+    """``pts`` ordered from the end nearer the left border (the top one for a vertical seam).
+
+    Returns ``pts`` itself when it is already in that order, else a reversed copy.
+    """
     d = pts[-1] - pts[0]
     if abs(d[0]) >= abs(d[1]):
         return pts if d[0] >= 0 else pts[::-1].copy()
     return pts if d[1] >= 0 else pts[::-1].copy()
+
+
+def public_end_kinds(kinds: tuple[str, str]) -> tuple[str, str]:
+    """The internal end kinds ("sheet border", "image border", ...) as the contract's words.
+
+    Only ends the detector returns are mapped: an "open" end (a line fading out inside a sheet)
+    is refused before this and is an error here.
+    """
+    out = []
+    for k in kinds:
+        if k == "image border":
+            out.append(IMAGE_BORDER)
+        elif k.endswith("sheet border"):
+            out.append(JOINT_END)
+        else:
+            raise ValueError(f"end kind {k!r} cannot be returned")
+    return out[0], out[1]
+
+
+def arc_length(pts: F64) -> F64:
+    """Cumulative arc length (px) along ``pts`` (K, 2), 0 at the first point."""
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+
+
+def spans_of(pts: F64, mask: NDArray[np.bool_]) -> list[tuple[float, float]]:
+    """Arc-length ranges (px from the first point of ``pts``) of the runs where ``mask`` is set.
+
+    Each run is widened to the neighbouring seen points (the gap was last seen there).
+    """
+    s = arc_length(pts)
+    m = np.concatenate([[0], mask.astype(np.int8), [0]])
+    st = np.flatnonzero(np.diff(m) == 1).tolist()
+    en = np.flatnonzero(np.diff(m) == -1).tolist()
+    return [(float(s[max(a - 1, 0)]), float(s[min(b, len(s) - 1)]))
+            for a, b in zip(st, en, strict=True)]

@@ -52,11 +52,21 @@ from controller.errors import AmbiguousSeam, InputError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
 from controller.vision.seam_coarse import coarse_candidates, mean_dist
-from controller.vision.seam_decision import orient, rate_confidence, summary_px
+from controller.vision.seam_decision import (
+    IMAGE_BORDER,
+    JOINT_END,
+    arc_length,
+    orient,
+    public_end_kinds,
+    rate_confidence,
+    spans_of,
+    summary_px,
+)
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_profiles import linear_lut
 
-__all__ = ["DetectParams", "SeamDetection", "detect_seam"]
+__all__ = ["IMAGE_BORDER", "JOINT_END", "DetectParams", "SeamDetection", "detect_seam",
+           "detect_seams"]
 
 
 @dataclass(frozen=True)
@@ -67,6 +77,18 @@ class SeamDetection:
     (the end nearer the image's left border first, or the top one for a vertical seam);
     ``endpoints_px`` (2, 2) its first and last point; ``width_px`` (K,) the fitted gap width;
     ``confidence`` 0..1; ``reasons`` human-readable lines saying why; ``stats`` numbers behind it.
+
+    ``end_kinds`` says what each end is, in the order of ``points_px`` (first point first):
+    ``"joint_end"`` (the two sheets stop facing each other inside the image: a sheet border, a
+    plate corner, a T-corner; the end point is a real feature of the part) or ``"image_border"``
+    (the seam leaves the image there; the end point is only where the view stops, not an end of
+    the joint). A point inside a sheet is never returned as an end: a line that fades out inside
+    a sheet is refused. :attr:`ends` gives the same as ``[{"px": [u, v], "kind": ...}, ...]``.
+
+    ``occluded_spans_px``: ``[(s0, s1), ...]`` arc-length ranges (px along ``points_px`` from
+    its first point) where the gap was not seen and the centreline is bridged through (a tack
+    weld, spatter, slag, glare); :attr:`occluded` gives the same per point (K,) bool. The
+    centreline there is interpolated from the gap on both sides: not an end, and not measured.
     """
 
     points_px: F64
@@ -75,12 +97,32 @@ class SeamDetection:
     endpoints_px: F64
     width_px: F64
     stats: dict[str, Any] = field(default_factory=dict)
+    end_kinds: tuple[str, str] = (JOINT_END, JOINT_END)
+    occluded_spans_px: list[tuple[float, float]] = field(default_factory=list)
+
+    @property
+    def ends(self) -> list[dict[str, Any]]:
+        """The two ends in seam order: ``[{"px": [u, v], "kind": "joint_end"|"image_border"}]``."""
+        return [{"px": [float(e[0]), float(e[1])], "kind": k}
+                for e, k in zip(self.endpoints_px, self.end_kinds, strict=True)]
+
+    @property
+    def occluded(self) -> NDArray[np.bool_]:
+        """(K,) bool per point of ``points_px``: inside an occluded (bridged) span."""
+        s = arc_length(self.points_px)
+        out = np.zeros(len(s), bool)
+        for a, b in self.occluded_spans_px:
+            out |= (s >= a) & (s <= b)
+        return out
 
     def to_dict(self, decimals: int = 3) -> dict[str, Any]:
         """JSON-ready dictionary: ``seam_px``, ``endpoints_px``, ``confidence``, ``reasons``..."""
         return {
             "seam_px": np.round(self.points_px, decimals).tolist(),
             "endpoints_px": np.round(self.endpoints_px, decimals).tolist(),
+            "ends": [{"px": [round(e["px"][0], decimals), round(e["px"][1], decimals)],
+                      "kind": e["kind"]} for e in self.ends],
+            "occluded_spans_px": [[round(a, 1), round(b, 1)] for a, b in self.occluded_spans_px],
             "confidence": round(float(self.confidence), 4),
             "reasons": list(self.reasons),
             "gap_width_px": round(float(np.median(self.width_px)), 3),
@@ -141,18 +183,29 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
             second_px=summary_px(second, x0, y0), **details)
     assert best.points is not None and best.width is not None
     conf, reasons = rate_confidence(best, ratio)
+    if "open" in best.end_kinds:
+        # A point inside a sheet is never returned as an end, at any confidence threshold.
+        raise SeamNotFound("best seam candidate fades out inside a sheet at one end (a joint "
+                           "ends at a sheet border or leaves the image): "
+                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
     if conf < p.min_confidence:
         raise SeamNotFound(f"best seam candidate too weak (confidence {conf:.2f}): "
                            + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
-    pts = best.points + [x0, y0]
-    pts = orient(pts)
-    width = best.width if np.allclose(pts[0], best.points[0] + [x0, y0]) else best.width[::-1]
+    pts0 = best.points + [x0, y0]
+    pts = orient(pts0)
+    flipped = pts is not pts0
+    width = best.width[::-1] if flipped else best.width
+    kinds = public_end_kinds(best.end_kinds)
+    bridged = best.bridged if best.bridged is not None else np.zeros(len(pts), bool)
+    if flipped:
+        kinds, bridged = (kinds[1], kinds[0]), bridged[::-1]
     stats = {"length_px": float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))),
              "valid_fraction": float(best.valid_frac), "relative_depth": float(best.depth),
              "fit_residual": float(best.resid), "second_best_ratio": float(ratio),
              "candidates": len(cands)}
     return SeamDetection(points_px=pts, confidence=conf, reasons=reasons,
-                         endpoints_px=np.array([pts[0], pts[-1]]), width_px=width, stats=stats)
+                         endpoints_px=np.array([pts[0], pts[-1]]), width_px=width, stats=stats,
+                         end_kinds=kinds, occluded_spans_px=spans_of(pts, bridged))
 
 
 def _as_grey(image: NDArray[Any]) -> NDArray[np.uint8]:

@@ -69,4 +69,5 @@ class Candidate:
     resid: float = 0.0
     score: float = 0.0
     end_kinds: tuple[str, str] = ("open", "open")
+    bridged: NDArray[np.bool_] | None = None  # per point of ``points``: interpolated, not seen
     why_rejected: str = ""
