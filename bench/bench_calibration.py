@@ -154,6 +154,7 @@ def run_auto_teach(seeds, n_views, width, fill=None, tilt=None):
     import io
 
     import calibration.teach as teach
+    import calibration.teach_poses as teach_poses
     from controller.geometry.kinematics import irb2400, solve_ik
     from drivers.sim.sim_board import SimBoardCamera, default_board_pose, default_hand_eye, look_at
 
@@ -163,11 +164,11 @@ def run_auto_teach(seeds, n_views, width, fill=None, tilt=None):
     centre = Y[:3, :3] @ board.object_points().mean(axis=0) + Y[:3, 3]
     T_bc = look_at(centre + np.array([0, 0, 330.0]), centre, 0.0)
     j0 = solve_ik(irb2400(), T_bc @ invert(X))
-    saved = teach.AUTO_FILL, teach.AUTO_TILT_DEG
+    saved = teach_poses.AUTO_FILL, teach_poses.AUTO_TILT_DEG
     if fill is not None:
-        teach.AUTO_FILL = fill
+        teach_poses.AUTO_FILL = fill
     if tilt is not None:
-        teach.AUTO_TILT_DEG = tuple(tilt)
+        teach_poses.AUTO_TILT_DEG = tuple(tilt)
     rows = []
     try:
         for seed in seeds:
@@ -178,7 +179,8 @@ def run_auto_teach(seeds, n_views, width, fill=None, tilt=None):
                                             out=io.StringIO(), holdout_every=0, seed=seed)
             d_mm, d_deg = pose_error(calib.T_flange_cam, X)
             he = report["hand_eye"]
-            rows.append({"seed": seed, "fill": teach.AUTO_FILL, "tilt_deg": teach.AUTO_TILT_DEG,
+            rows.append({"seed": seed, "fill": teach_poses.AUTO_FILL,
+                         "tilt_deg": teach_poses.AUTO_TILT_DEG,
                          "error_mm_deg": [d_mm, d_deg],
                          "focal_error_pct": 100 * (calib.camera.fx / cam.fx - 1),
                          "std_mm_cam_xyz": he.get("hand_eye_std_mm_cam_xyz"),
@@ -188,7 +190,7 @@ def run_auto_teach(seeds, n_views, width, fill=None, tilt=None):
                          "s": round(time.perf_counter() - t0, 1)})
             print(json.dumps(rows[-1], default=float), file=sys.stderr)
     finally:
-        teach.AUTO_FILL, teach.AUTO_TILT_DEG = saved
+        teach_poses.AUTO_FILL, teach_poses.AUTO_TILT_DEG = saved
     return rows
 
 
