@@ -304,8 +304,10 @@ def test_rapid_and_mock_serve_the_same_requests_and_errors():
         (Path(__file__).resolve().parents[1] / "drivers" / "mock").glob("mock_*.py")))
     rapid_codes = {int(c) for c in re.findall(r'"ER (\d\d) ', RAPID)}
     mock_codes = {int(c) for c in re.findall(r"error_body\((\d\d),", src)}
-    assert rapid_codes == mock_codes
+    # 14 (a reply that would not fit a line) and 15 (a RAPID error while serving) are the
+    # RAPID program's safety nets; the mock's replies always fit and it has no RAPID errors
+    assert rapid_codes - {14, 15} == mock_codes
     doc = (Path(__file__).resolve().parents[1] / "docs" / "protocol.md").read_text()
     doc_codes = {int(c) for c in re.findall(r"^\| (\d\d) \|", doc, re.M)}
-    assert mock_codes <= doc_codes
+    assert rapid_codes | mock_codes <= doc_codes
     assert '"ER 10 bad line"' in RAPID and "CAPACITY := 250" in RAPID

@@ -7,29 +7,45 @@ MODULE SGSERVER
   !
   ! seamguide robot link server for the ABB S4 controller, protocol SGRS/1.
   ! The protocol is docs/protocol.md of the seamguide repository; the mock controller
-  ! (drivers/mock_controller.py) speaks it byte for byte like this module.
+  ! (drivers/mock/) speaks it like this module, and the tests run this module itself
+  ! in a RAPID interpreter (drivers/rapid_vm/) through the client's contract tests.
   !
   ! Line format:  kind seq SP body "*" chk LF   (at most 80 characters before LF)
   ! Checksum: Fletcher-16 modulo 255 over everything before "*", as 4 hex digits
   ! (s2 then s1), computed with DIV and MOD only.
   !
-  ! Requires: a serial channel "sio1:" (8N1, 9600 or 19200 baud, no handshake,
-  ! configured in the system parameters), digital output doWeld (arc on) and digital
-  ! input diCycleReq (operator asks for a cycle; job name in sg_job).
+  ! Only instructions of the S4 BaseWare RAPID reference are used; docs/rapid-install.md
+  ! lists each one with where it is documented. Anything newer (CalcJointT, ERR_ROBLIMIT)
+  ! is in the optional module SGREACH.mod, called by late binding (see Reachable), so
+  ! this module loads without it.
+  !
+  ! Requires (load time): a serial channel "sio1:" (8N1, 9600 or 19200 baud, no
+  ! handshake, configured in the system parameters), digital output doWeld (arc on) and
+  ! digital input diCycleReq (operator asks for a cycle; job name in sg_job).
   ! See docs/rapid-install.md. NOT yet run on a controller: check it on yours first.
   !
+  ! No string here can grow past the 80 characters of a RAPID string: every string that
+  ! is built from received or operator data has its length checked before it is joined.
+  !
   CONST num CAPACITY := 250;
-  ! printable ASCII 32..79 and 80..126, for the character codes (no Ord() on S4)
+  ! printable ASCII 32..79 and 80..126: character <-> code (no Ord()/Chr() on S4)
   CONST string PRINT1 := " !""#$%&'()*+,-./0123456789:;<=>?@ABCDEFGHIJKLMNO";
   CONST string PRINT2 := "PQRSTUVWXYZ[\\]^_`abcdefghijklmnopqrstuvwxyz{|}~";
   CONST string HEX := "0123456789ABCDEF";
   CONST string DIGITS := "0123456789";
-  ! set FALSE on BaseWare without CalcJointT: unreachable targets then stop the program
-  CONST bool PRECHECK := TRUE;
+  CONST string JOBCHARS := "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_";
+  ! the requests this server knows, each between spaces
+  CONST string REQUESTS := " HI ID ST RJ RP RQ TP TO SV XP XO XR PN CK AB MJ ML RW ";
+  ! longest body that fits a line: 80 - "A12 " - "*ABCD"
+  CONST num MAXBODY := 71;
 
   PERS num sg_boot := 0;
   PERS string sg_job := "job1";
   PERS tooldata sgtool := [TRUE,[[0,0,0],[1,0,0,0]],[5,[0,0,100],[1,0,0,0],0,0,0]];
+
+  ! shared with the optional module SGREACH (reachability pre-check)
+  VAR robtarget sg_target;
+  VAR bool sg_reach := TRUE;
 
   VAR iodev ch;
   VAR intnum int_cyc;
@@ -41,7 +57,12 @@ MODULE SGSERVER
   VAR string last_reply := "";
   VAR num ev_seq := 0;
 
-  VAR string f{10};
+  ! the line read: its character codes lc{1..nlc}; the fields of a request f{1..nf}
+  ! (nf = 13: more than 12 fields)
+  VAR num lc{80};
+  VAR num nlc := 0;
+  VAR num tx{86};
+  VAR string f{12};
   VAR num nf := 0;
   VAR num rseq := 0;
 
@@ -82,15 +103,29 @@ MODULE SGSERVER
       ! Close of a channel that was not open
       TRYNEXT;
     ENDIF
+    ! anything else stops the program with the error on the teach pendant
+    RAISE;
   ENDPROC
 
   TRAP t_cycle
-    cyc := sg_job;
-    cyc_flag := TRUE;
+    ! the protocol's job name is 1..16 of [A-Za-z0-9_]; anything else is refused here,
+    ! so the CY event and the ST reply stay within a line
+    IF JobOk(sg_job) THEN
+      cyc := sg_job;
+      cyc_flag := TRUE;
+    ELSE
+      TPWrite "seamguide: sg_job must be 1-16 letters, digits or _";
+    ENDIF
   ENDTRAP
+
+  FUNC bool JobOk(string s)
+    IF StrLen(s) < 1 OR StrLen(s) > 16 RETURN FALSE;
+    RETURN StrFind(s, 1, JOBCHARS \NotInSet) > StrLen(s);
+  ENDFUNC
 
   ! ---- characters, checksum, framing ---------------------------------------------
 
+  ! code of a printable character, -1 for any other
   FUNC num CharCode(string c)
     VAR num p;
     p := StrMatch(PRINT1, 1, c);
@@ -100,22 +135,14 @@ MODULE SGSERVER
     RETURN -1;
   ENDFUNC
 
-  FUNC string Hex2(num n)
-    RETURN StrPart(HEX, (n DIV 16) + 1, 1) + StrPart(HEX, (n MOD 16) + 1, 1);
+  ! the character of a printable code 32..126
+  FUNC string CharOf(num c)
+    IF c <= 79 RETURN StrPart(PRINT1, c - 31, 1);
+    RETURN StrPart(PRINT2, c - 79, 1);
   ENDFUNC
 
-  ! Fletcher-16 (mod 255) as 4 hex digits; "" when a character is not printable
-  FUNC string Checksum(string s)
-    VAR num s1 := 0;
-    VAR num s2 := 0;
-    VAR num c;
-    FOR i FROM 1 TO StrLen(s) DO
-      c := CharCode(StrPart(s, i, 1));
-      IF c < 0 RETURN "";
-      s1 := (s1 + c) MOD 255;
-      s2 := (s2 + s1) MOD 255;
-    ENDFOR
-    RETURN Hex2(s2) + Hex2(s1);
+  FUNC string Hex2(num n)
+    RETURN StrPart(HEX, (n DIV 16) + 1, 1) + StrPart(HEX, (n MOD 16) + 1, 1);
   ENDFUNC
 
   FUNC string Two(num n)
@@ -123,18 +150,49 @@ MODULE SGSERVER
     RETURN NumToStr(n, 0);
   ENDFUNC
 
+  ! A body that could not go on a line (too long, or a character outside printable
+  ! ASCII) is replaced by an error: the line stays readable and the program runs on.
+  FUNC string Fit(string body)
+    IF StrLen(body) > MAXBODY RETURN "ER 14 reply too long";
+    IF StrFind(body, 1, "*") <= StrLen(body) RETURN "ER 14 reply not printable";
+    RETURN body;
+  ENDFUNC
+
+  ! Writes kind seq SP body "*" chk LF as bytes (WriteBin); the checksum is computed
+  ! from the codes written.
   PROC SendLine(string kind, num seq, string body)
     VAR string head;
-    head := kind + Two(seq) + " " + body;
-    WriteStrBin ch, head + "*" + Checksum(head) + "\0A";
+    VAR num n;
+    VAR num s1 := 0;
+    VAR num s2 := 0;
+    head := kind + Two(seq) + " " + Fit(body);
+    n := StrLen(head);
+    FOR i FROM 1 TO n DO
+      tx{i} := CharCode(StrPart(head, i, 1));
+      IF tx{i} < 0 THEN
+        SendLine kind, seq, "ER 14 reply not printable";
+        RETURN;
+      ENDIF
+      s1 := (s1 + tx{i}) MOD 255;
+      s2 := (s2 + s1) MOD 255;
+    ENDFOR
+    tx{n + 1} := 42;
+    tx{n + 2} := CharCode(StrPart(HEX, (s2 DIV 16) + 1, 1));
+    tx{n + 3} := CharCode(StrPart(HEX, (s2 MOD 16) + 1, 1));
+    tx{n + 4} := CharCode(StrPart(HEX, (s1 DIV 16) + 1, 1));
+    tx{n + 5} := CharCode(StrPart(HEX, (s1 MOD 16) + 1, 1));
+    tx{n + 6} := 10;
+    WriteBin ch, tx, n + 6;
   ENDPROC
 
   PROC Reply(num seq, string body)
+    VAR string b;
+    b := Fit(body);
     IF seq > 0 AND session > 0 THEN
       last_seq := seq;
-      last_reply := body;
+      last_reply := b;
     ENDIF
-    SendLine "A", seq, body;
+    SendLine "A", seq, b;
   ENDPROC
 
   PROC Event(string body)
@@ -142,54 +200,69 @@ MODULE SGSERVER
     SendLine "E", ev_seq, body;
   ENDPROC
 
-  ! Reads one line (without LF) into ln; FALSE when nothing came within t seconds.
-  ! A line longer than 80 characters is read to its LF and returned as "" (a bad line).
+  ! Reads one line (without LF) into ln and its codes into lc{1..nlc}; FALSE when
+  ! nothing came within t seconds. A line longer than 80 characters, with a byte
+  ! outside printable ASCII, or cut short by a pause of 1 s, is returned as "" (a bad
+  ! line); a CR is ignored only just before the LF.
   FUNC bool ReadLine(INOUT string ln, num t)
-    VAR string c;
-    VAR bool over := FALSE;
+    VAR num c;
+    VAR bool bad := FALSE;
+    VAR bool cr := FALSE;
     ln := "";
-    c := ReadStrBin(ch, 1 \Time:=t);
-    WHILE c <> "\0A" DO
-      IF c <> "\0D" THEN
-        IF StrLen(ln) >= 80 THEN
-          over := TRUE;
-        ELSE
-          ln := ln + c;
-        ENDIF
+    nlc := 0;
+    c := ReadBin(ch \Time:=t);
+    WHILE c <> 10 DO
+      IF cr bad := TRUE;
+      cr := FALSE;
+      IF c = 13 THEN
+        cr := TRUE;
+      ELSEIF nlc >= 80 OR c < 32 OR c > 126 THEN
+        bad := TRUE;
+      ELSE
+        nlc := nlc + 1;
+        lc{nlc} := c;
+        ln := ln + CharOf(c);
       ENDIF
-      c := ReadStrBin(ch, 1 \Time:=1);
+      c := ReadBin(ch \Time:=1);
     ENDWHILE
-    IF over ln := "";
+    IF bad ln := "";
     RETURN TRUE;
   ERROR
     IF ERRNO = ERR_DEV_MAXTIME THEN
       ! nothing (more) arrived: a partial line is a bad line
-      IF StrLen(ln) > 0 THEN
+      IF StrLen(ln) > 0 OR bad OR cr THEN
         ln := "";
         RETURN TRUE;
       ENDIF
       RETURN FALSE;
     ENDIF
+    RAISE;
   ENDFUNC
 
   FUNC bool IsInt(string s)
     IF StrLen(s) < 1 OR StrLen(s) > 4 RETURN FALSE;
-    RETURN StrMemb(s, 1, DIGITS) AND StrFind(s, 1, DIGITS \NotInSet) > StrLen(s);
+    RETURN StrFind(s, 1, DIGITS \NotInSet) > StrLen(s);
   ENDFUNC
 
-  ! Decodes a request line into rseq and the fields f{1..nf}; FALSE when it is bad.
+  ! Decodes the line read (ln, lc) into rseq and the fields f{1..nf}; FALSE when bad.
   FUNC bool Decode(string ln)
     VAR num n;
     VAR num p;
     VAR num q;
+    VAR num s1 := 0;
+    VAR num s2 := 0;
     VAR string head;
     VAR string body;
     n := StrLen(ln);
-    IF n < 10 RETURN FALSE;
+    IF n < 10 OR n <> nlc RETURN FALSE;
     IF StrPart(ln, n - 4, 1) <> "*" RETURN FALSE;
     head := StrPart(ln, 1, n - 5);
     IF StrFind(head, 1, "*") <= StrLen(head) RETURN FALSE;
-    IF Checksum(head) <> StrPart(ln, n - 3, 4) RETURN FALSE;
+    FOR i FROM 1 TO n - 5 DO
+      s1 := (s1 + lc{i}) MOD 255;
+      s2 := (s2 + s1) MOD 255;
+    ENDFOR
+    IF Hex2(s2) + Hex2(s1) <> StrPart(ln, n - 3, 4) RETURN FALSE;
     IF StrPart(head, 1, 1) <> "Q" OR StrPart(head, 4, 1) <> " " RETURN FALSE;
     IF NOT IsInt(StrPart(head, 2, 2)) RETURN FALSE;
     IF NOT StrToVal(StrPart(head, 2, 2), rseq) RETURN FALSE;
@@ -199,9 +272,13 @@ MODULE SGSERVER
     p := 1;
     WHILE p <= StrLen(body) DO
       q := StrFind(body, p, " ");
-      IF q = p OR nf >= 10 RETURN FALSE;
-      nf := nf + 1;
-      f{nf} := StrPart(body, p, q - p);
+      IF q = p RETURN FALSE;
+      IF nf < 12 THEN
+        nf := nf + 1;
+        f{nf} := StrPart(body, p, q - p);
+      ELSE
+        nf := 13;
+      ENDIF
       p := q + 1;
       IF q = StrLen(body) RETURN FALSE;
     ENDWHILE
@@ -213,6 +290,7 @@ MODULE SGSERVER
   PROC ServeOnce(num t)
     VAR string ln;
     VAR string body;
+    VAR num q := 0;
     IF cyc_flag THEN
       cyc_flag := FALSE;
       Event "CY " + cyc;
@@ -227,16 +305,42 @@ MODULE SGSERVER
       SendLine "A", rseq, last_reply;
       RETURN;
     ENDIF
+    q := rseq;
     body := Execute();
-    Reply rseq, body;
+    Reply q, body;
+  ERROR
+    ! A recoverable error while serving (the serial channel, or a request that raised
+    ! in a routine it calls): the request, if one was read, is answered with the error
+    ! number, and the caller goes on (a running motion is not stopped by it).
+    IF q > 0 Reply q, "ER 15 server error " + NumToStr(ERRNO, 0);
+    RETURN;
   ENDPROC
 
-  FUNC bool Num(num i, INOUT num v)
+  ! field i as a protocol number (-?d{1,5}(.d{1,6})?, what the client sends) into v
+  FUNC bool NumArg(num i, INOUT num v)
+    VAR string s;
+    VAR num n;
+    VAR num p;
     IF i > nf RETURN FALSE;
+    s := f{i};
+    IF StrPart(s, 1, 1) = "-" THEN
+      IF StrLen(s) = 1 RETURN FALSE;
+      s := StrPart(s, 2, StrLen(s) - 1);
+    ENDIF
+    n := StrLen(s);
+    p := StrFind(s, 1, ".");
+    IF p = 1 OR p > 6 RETURN FALSE;
+    IF StrFind(StrPart(s, 1, p - 1), 1, DIGITS \NotInSet) < p RETURN FALSE;
+    IF p <= n THEN
+      IF n - p < 1 OR n - p > 6 RETURN FALSE;
+      IF StrFind(s, p + 1, DIGITS \NotInSet) <= n RETURN FALSE;
+    ENDIF
     RETURN StrToVal(f{i}, v);
   ENDFUNC
 
-  FUNC bool Slot(num i, INOUT num k)
+  ! field i as an unsigned integer of 1..4 digits into k
+  FUNC bool IntArg(num i, INOUT num k)
+    IF i > nf RETURN FALSE;
     IF NOT IsInt(f{i}) RETURN FALSE;
     RETURN StrToVal(f{i}, k);
   ENDFUNC
@@ -250,8 +354,12 @@ MODULE SGSERVER
     VAR num z;
     VAR num w;
     c := f{1};
+    IF StrLen(c) <> 2 OR StrMatch(REQUESTS, 1, " " + c + " ") > StrLen(REQUESTS) THEN
+      IF StrLen(c) > 8 c := StrPart(c, 1, 8);
+      RETURN "ER 11 unknown request " + c;
+    ENDIF
     IF c = "HI" THEN
-      IF nf <> 2 OR NOT Slot(2, a) RETURN "ER 12 bad arguments to HI";
+      IF nf <> 2 OR (NOT IntArg(2, a)) RETURN "ER 12 bad arguments to HI";
       IF a < 1 OR a > 999 RETURN "ER 12 bad arguments to HI";
       IF a <> session THEN
         session := a;
@@ -260,39 +368,47 @@ MODULE SGSERVER
       ENDIF
       RETURN "OK " + NumToStr(sg_boot, 0) + " " + NumToStr(mid, 0) + " " + mstate;
     ENDIF
-    IF c = "ID" RETURN "OK SGRS 1 IRB2400 " + NumToStr(CAPACITY, 0);
+    IF c = "ID" THEN
+      IF nf <> 1 RETURN "ER 12 bad arguments to ID";
+      RETURN "OK SGRS 1 IRB2400 " + NumToStr(CAPACITY, 0);
+    ENDIF
     IF c = "ST" THEN
+      IF nf <> 1 RETURN "ER 12 bad arguments to ST";
       RETURN "OK " + Bool01(mstate = "R") + " " + NumToStr(arc, 0) + " " + NumToStr(mid, 0)
         + " " + mstate + " " + NumToStr(pidx, 0) + " " + NumToStr(err, 0) + " " + cyc;
     ENDIF
     IF session = 0 RETURN "ER 13 no session";
     IF c = "RJ" THEN
+      IF nf <> 1 RETURN "ER 12 bad arguments to RJ";
       jt := CJointT();
       RETURN "OK " + NumToStr(jt.robax.rax_1, 4) + " " + NumToStr(jt.robax.rax_2, 4) + " "
         + NumToStr(jt.robax.rax_3, 4) + " " + NumToStr(jt.robax.rax_4, 4) + " "
         + NumToStr(jt.robax.rax_5, 4) + " " + NumToStr(jt.robax.rax_6, 4);
     ENDIF
     IF c = "RP" THEN
+      IF nf <> 1 RETURN "ER 12 bad arguments to RP";
       snap := CRobT(\Tool:=tool0 \WObj:=wobj0);
       RETURN "OK " + NumToStr(snap.trans.x, 3) + " " + NumToStr(snap.trans.y, 3) + " "
         + NumToStr(snap.trans.z, 3);
     ENDIF
     IF c = "RQ" THEN
+      IF nf <> 1 RETURN "ER 12 bad arguments to RQ";
       RETURN "OK " + NumToStr(snap.rot.q1, 6) + " " + NumToStr(snap.rot.q2, 6) + " "
         + NumToStr(snap.rot.q3, 6) + " " + NumToStr(snap.rot.q4, 6);
     ENDIF
     IF c = "TP" THEN
-      IF nf <> 4 OR NOT (Num(2, x) AND Num(3, y) AND Num(4, z)) RETURN "ER 12 bad arguments to TP";
+      IF nf <> 4 OR (NOT (NumArg(2, x) AND NumArg(3, y) AND NumArg(4, z))) RETURN "ER 12 bad arguments to TP";
       sgtool.tframe.trans := [x, y, z];
       RETURN "OK";
     ENDIF
     IF c = "TO" THEN
-      IF nf <> 5 OR NOT (Num(2, w) AND Num(3, x) AND Num(4, y) AND Num(5, z)) RETURN "ER 12 bad arguments to TO";
+      IF nf <> 5 OR (NOT (NumArg(2, w) AND NumArg(3, x) AND NumArg(4, y) AND NumArg(5, z))) RETURN "ER 12 bad arguments to TO";
+      IF Abs(Sqrt(w * w + x * x + y * y + z * z) - 1) > 0.001 RETURN "ER 12 bad arguments to TO";
       sgtool.tframe.rot := [w, x, y, z];
       RETURN "OK";
     ENDIF
     IF c = "SV" THEN
-      IF nf <> 3 OR NOT (Num(2, a) AND Num(3, b)) RETURN "ER 12 bad arguments to SV";
+      IF nf <> 3 OR (NOT (NumArg(2, a) AND NumArg(3, b))) RETURN "ER 12 bad arguments to SV";
       IF a <= 0 OR a > 1000 OR b < 0 OR b > 200 RETURN "ER 50 speed or zone out of range";
       sgspeed.v_tcp := a;
       IF b = 0 THEN
@@ -302,35 +418,10 @@ MODULE SGSERVER
       ENDIF
       RETURN "OK";
     ENDIF
-    IF c = "XP" OR c = "XO" THEN
-      IF NOT Slot(2, a) RETURN "ER 12 bad arguments to " + c;
-      IF a > CAPACITY RETURN "ER 24 slot out of range";
-      IF c = "XP" THEN
-        IF nf <> 5 OR NOT (Num(3, x) AND Num(4, y) AND Num(5, z)) RETURN "ER 12 bad arguments to XP";
-        slots{a + 1}.trans := [x, y, z];
-        slots{a + 1}.robconf := [0, 0, 0, 0];
-        slots{a + 1}.extax := [9E9, 9E9, 9E9, 9E9, 9E9, 9E9];
-        havepos{a + 1} := TRUE;
-      ELSE
-        IF nf <> 6 OR NOT (Num(3, w) AND Num(4, x) AND Num(5, y) AND Num(6, z)) RETURN "ER 12 bad arguments to XO";
-        IF Abs(Sqrt(w * w + x * x + y * y + z * z) - 1) > 0.001 RETURN "ER 12 bad arguments to XO";
-        slots{a + 1}.rot := [w, x, y, z];
-        haverot{a + 1} := TRUE;
-      ENDIF
-      RETURN "OK";
-    ENDIF
-    IF c = "XR" THEN
-      ! orientation of slot k = that of slot k - 1 (path points only)
-      IF nf <> 2 OR NOT Slot(2, a) RETURN "ER 12 bad arguments to XR";
-      IF a > CAPACITY RETURN "ER 24 slot out of range";
-      IF a < 2 RETURN "ER 21 no orientation to repeat";
-      IF NOT haverot{a} RETURN "ER 21 no orientation to repeat";
-      slots{a + 1}.rot := slots{a}.rot;
-      haverot{a + 1} := TRUE;
-      RETURN "OK";
-    ENDIF
+    IF c = "XP" OR c = "XO" OR c = "XR" RETURN Target(c);
     IF c = "PN" THEN
-      IF nf <> 2 OR NOT Slot(2, a) OR a < 1 RETURN "ER 12 bad arguments to PN";
+      IF nf <> 2 OR (NOT IntArg(2, a)) RETURN "ER 12 bad arguments to PN";
+      IF a < 1 RETURN "ER 12 bad arguments to PN";
       IF a > CAPACITY RETURN "ER 23 path of " + NumToStr(a, 0) + " exceeds buffer " + NumToStr(CAPACITY, 0);
       FOR i FROM 2 TO CAPACITY + 1 DO
         havepos{i} := FALSE;
@@ -340,15 +431,16 @@ MODULE SGSERVER
       RETURN "OK " + NumToStr(a, 0);
     ENDIF
     IF c = "CK" THEN
+      IF nf <> 1 RETURN "ER 12 bad arguments to CK";
       cyc := "-";
       RETURN "OK";
     ENDIF
     IF c = "AB" THEN
+      IF nf <> 1 RETURN "ER 12 bad arguments to AB";
       Abort;
       RETURN "OK";
     ENDIF
-    IF c = "MJ" OR c = "ML" OR c = "RW" RETURN Motion(c);
-    RETURN "ER 11 unknown request " + c;
+    RETURN Motion(c);
   ENDFUNC
 
   FUNC string Bool01(bool b)
@@ -356,18 +448,50 @@ MODULE SGSERVER
     RETURN "0";
   ENDFUNC
 
-  ! Checks and accepts a motion; RunMotion (from main) executes it.
+  ! XP k x y z, XO k q1 q2 q3 q4, XR k: a target slot's position or orientation
+  FUNC string Target(string c)
+    VAR num k;
+    VAR num w;
+    VAR num x;
+    VAR num y;
+    VAR num z;
+    IF (c = "XP" AND nf <> 5) OR (c = "XO" AND nf <> 6) OR (c = "XR" AND nf <> 2) RETURN "ER 12 bad arguments to " + c;
+    IF NOT IntArg(2, k) RETURN "ER 12 bad arguments to " + c;
+    IF k > CAPACITY RETURN "ER 24 slot out of range";
+    IF c = "XP" THEN
+      IF NOT (NumArg(3, x) AND NumArg(4, y) AND NumArg(5, z)) RETURN "ER 12 bad arguments to XP";
+      slots{k + 1}.trans := [x, y, z];
+      slots{k + 1}.robconf := [0, 0, 0, 0];
+      slots{k + 1}.extax := [9E9, 9E9, 9E9, 9E9, 9E9, 9E9];
+      havepos{k + 1} := TRUE;
+    ELSEIF c = "XO" THEN
+      IF NOT (NumArg(3, w) AND NumArg(4, x) AND NumArg(5, y) AND NumArg(6, z)) RETURN "ER 12 bad arguments to XO";
+      IF Abs(Sqrt(w * w + x * x + y * y + z * z) - 1) > 0.001 RETURN "ER 12 bad arguments to XO";
+      slots{k + 1}.rot := [w, x, y, z];
+      haverot{k + 1} := TRUE;
+    ELSE
+      ! orientation of slot k = that of slot k - 1 (path points only)
+      IF k < 2 RETURN "ER 21 no orientation to repeat";
+      IF NOT haverot{k} RETURN "ER 21 no orientation to repeat";
+      slots{k + 1}.rot := slots{k}.rot;
+      haverot{k + 1} := TRUE;
+    ENDIF
+    RETURN "OK";
+  ENDFUNC
+
+  ! Checks and accepts a motion (MJ, ML, RW); RunMotion (from main) executes it.
   FUNC string Motion(string c)
     VAR num m;
     VAR num a;
     VAR num v{6};
-    IF NOT Slot(2, m) OR m < 1 RETURN "ER 12 bad arguments to " + c;
+    IF (c = "MJ" AND nf <> 8) OR (c = "ML" AND nf <> 2) OR (c = "RW" AND nf <> 3) RETURN "ER 12 bad arguments to " + c;
+    IF NOT IntArg(2, m) RETURN "ER 12 bad arguments to " + c;
+    IF m < 1 RETURN "ER 12 bad arguments to " + c;
     IF mstate = "R" RETURN "ER 20 busy: a motion is running";
     IF m = last_mid RETURN "ER 25 motion " + NumToStr(m, 0) + " already executed";
     IF c = "MJ" THEN
-      IF nf <> 8 RETURN "ER 12 bad arguments to MJ";
       FOR i FROM 1 TO 6 DO
-        IF NOT Num(i + 2, a) RETURN "ER 12 bad arguments to MJ";
+        IF NOT NumArg(i + 2, a) RETURN "ER 12 bad arguments to MJ";
         v{i} := a;
       ENDFOR
       ! IRB 2400 axis limits (product specification)
@@ -376,13 +500,12 @@ MODULE SGSERVER
       jt.robax := [v{1}, v{2}, v{3}, v{4}, v{5}, v{6}];
       jt.extax := [9E9, 9E9, 9E9, 9E9, 9E9, 9E9];
     ELSEIF c = "ML" THEN
-      IF nf <> 2 RETURN "ER 12 bad arguments to ML";
       IF NOT (havepos{1} AND haverot{1}) RETURN "ER 21 target slot 0 incomplete";
       IF NOT Reachable(slots{1}) RETURN "ER 30 target unreachable";
       havepos{1} := FALSE;
       haverot{1} := FALSE;
     ELSE
-      IF nf <> 3 OR NOT Slot(3, a) OR a > 1 RETURN "ER 12 bad arguments to RW";
+      IF (NOT IntArg(3, a)) OR a > 1 RETURN "ER 12 bad arguments to RW";
       IF path_n = 0 RETURN "ER 22 path incomplete";
       FOR i FROM 2 TO path_n + 1 DO
         IF NOT (havepos{i} AND haverot{i}) RETURN "ER 22 path incomplete";
@@ -401,16 +524,27 @@ MODULE SGSERVER
     RETURN "OK " + NumToStr(m, 0);
   ENDFUNC
 
+  ! TRUE when the robot can reach t with sgtool. The check is the optional module
+  ! SGREACH (procedure SgReachCheck, CalcJointT), called by late binding: without that
+  ! module every target counts as reachable here and an unreachable one is found by the
+  ! motion itself (a fault, FL mid 40).
   FUNC bool Reachable(robtarget t)
-    VAR jointtarget j;
-    IF NOT PRECHECK RETURN TRUE;
-    j := CalcJointT(t, sgtool \WObj:=wobj0);
-    RETURN TRUE;
+    sg_target := t;
+    sg_reach := TRUE;
+    %"SgReachCheck"%;
+    RETURN sg_reach;
   ERROR
-    IF ERRNO = ERR_ROBLIMIT RETURN FALSE;
+    IF ERRNO = ERR_REFUNKPRC RETURN TRUE;
+    RAISE;
   ENDFUNC
 
   ! ---- motion --------------------------------------------------------------------------
+
+  ! the path point a fault or abort is reported at (0: not a path)
+  FUNC num FaultPoint()
+    IF mkind = "RW" RETURN pidx + 1;
+    RETURN 0;
+  ENDFUNC
 
   PROC Abort()
     ! arc output off FIRST, then stop the robot and throw the rest of the path away
@@ -422,7 +556,7 @@ MODULE SGSERVER
       StartMove;
       mstate := "A";
       err := 41;
-      Event "FL " + NumToStr(mid, 0) + " 41 " + NumToStr(pidx + 1, 0);
+      Event "FL " + NumToStr(mid, 0) + " 41 " + NumToStr(FaultPoint(), 0);
     ENDIF
   ENDPROC
 
@@ -445,7 +579,7 @@ MODULE SGSERVER
     VAR robtarget target;
     IF mkind = "MJ" THEN
       MoveAbsJ \Conc, jt, sgspeed, fine, tool0;
-      WHILE mstate = "R" AND NOT JointsAt(jt) DO
+      WHILE mstate = "R" AND (NOT JointsAt(jt)) DO
         ServeOnce 0.05;
       ENDWHILE
       IF mstate = "R" THEN
@@ -455,7 +589,7 @@ MODULE SGSERVER
     ELSEIF mkind = "ML" THEN
       target := slots{1};
       MoveL \Conc, target, sgspeed, fine, sgtool \WObj:=wobj0;
-      WHILE mstate = "R" AND NOT PoseAt(target) DO
+      WHILE mstate = "R" AND (NOT PoseAt(target)) DO
         ServeOnce 0.05;
       ENDWHILE
       IF mstate = "R" THEN
@@ -491,7 +625,9 @@ MODULE SGSERVER
       ENDIF
     ENDIF
   ERROR
-    ! a recoverable motion error: arc off first, then stop, report the point
+    ! A recoverable error of a motion instruction: arc off first, then stop, report the
+    ! point. Errors while serving a request cannot reach here: ServeOnce never raises
+    ! for what the client sends (every request is answered OK or ER).
     SetDO doWeld, 0;
     arc := 0;
     StopMove;
@@ -499,7 +635,7 @@ MODULE SGSERVER
     StartMove;
     mstate := "F";
     err := 40;
-    Event "FL " + NumToStr(mid, 0) + " 40 " + NumToStr(pidx + 1, 0);
+    Event "FL " + NumToStr(mid, 0) + " 40 " + NumToStr(FaultPoint(), 0);
     RETURN;
   ENDPROC
 ENDMODULE
