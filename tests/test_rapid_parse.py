@@ -12,7 +12,6 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
 from shared_data import shared_data_dir
 
 RAPID_DIR = Path(__file__).resolve().parents[1] / "drivers" / "abb" / "rapid"
