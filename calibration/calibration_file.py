@@ -13,7 +13,9 @@ The format is the contract in ../shared/DESIGN.md::
       quaternion_wxyz: [w, x, y, z]
 
 Optional keys written by seamguide: ``camera_pose`` (same shape as ``hand_eye``, for a camera fixed
-in the cell: ``T_base_cam``), ``metadata`` (a mapping: date, residuals, views used, identities).
+in the cell: ``T_base_cam``; a file holds ``hand_eye`` or ``camera_pose``, not both: one file per
+camera, and a camera is on the flange or fixed), ``metadata`` (a mapping: date, residuals, views
+used, identities).
 Other keys are kept when read and written back, so files from other tools survive a round trip.
 Every validation error is a :class:`CalibrationError` naming the file and the key.
 """
@@ -129,6 +131,10 @@ def calibration_from_dict(doc: Any, path: str | os.PathLike[str] = "<memory>") -
     T_fc = _pose(doc["hand_eye"], "hand_eye", path) if doc.get("hand_eye") is not None else None
     T_bc = (_pose(doc["camera_pose"], "camera_pose", path)
             if doc.get("camera_pose") is not None else None)
+    if T_fc is not None and T_bc is not None:
+        raise _fail(path, "hand_eye/camera_pose", "a calibration file is of one camera, on the "
+                    "flange (hand_eye) or fixed in the cell (camera_pose), not both; keep the "
+                    "one that matches how the camera is mounted")
     meta = doc.get("metadata", {})
     if not isinstance(meta, dict):
         raise _fail(path, "metadata", "must be a mapping")

@@ -67,6 +67,7 @@ def _broken(tmp_path, calib, mutate):
     (lambda d: d["hand_eye"].pop("translation_mm"), "hand_eye.translation_mm"),
     (lambda d: d.update(distortion_model="fisheye"), "distortion_model"),
     (lambda d: d.update(image_height=0), "image_height"),
+    (lambda d: d.update(camera_pose=d["hand_eye"]), "hand_eye/camera_pose"),
 ])
 def test_invalid_file_names_key_and_file(tmp_path, calib, mutate, key):
     p = _broken(tmp_path, calib, mutate)

@@ -75,3 +75,23 @@ def test_not_json(folder):
         load_view(p)
     with pytest.raises(InputError, match="does not exist"):
         load_view(folder / "none.json")
+
+
+def test_camera_named_view(folder):
+    T = make_pose(t_mm=[1, 2, 3])
+    v = load_view(write(folder, view_to_dict("img.png", T_base_cam=T, camera="left")))
+    assert v.camera == "left" and pose_error(v.T_base_cam, T)[0] < 1e-9
+    # A fixed camera's view may give no pose: its calibration has it.
+    v = load_view(write(folder, view_to_dict("img.png", camera="right")))
+    assert v.camera == "right" and v.T_base_cam is None and v.T_base_flange is None
+    j = np.array([10, 20, -10, 30, 40, 50.0])
+    v = load_view(write(folder, view_to_dict("img.png", joints_deg=j, camera="wrist")))
+    assert v.camera == "wrist" and v.T_base_flange is not None
+
+
+@pytest.mark.parametrize("name", ["", "a b", "-x", 7, "x" * 65, "../cam"])
+def test_bad_camera_name(folder, name):
+    p = write(folder, {"image": "img.png", "camera": name})
+    with pytest.raises(InputError) as e:
+        load_view(p)
+    assert str(p) in str(e.value) and "camera" in str(e.value)

@@ -49,7 +49,9 @@ def register(sub: Any) -> None:
                          description="Detects the seam in each view's image, triangulates it in "
                          "the robot base frame and plans the weld path. Output: seam_points_mm "
                          "(base frame, ordered, before the tool offset), weld_path, quality.")
-    loc.add_argument("--calibration", required=True, help="calibration file (YAML)")
+    loc.add_argument("--calibration", required=True, action="append", dest="calibrations",
+                     metavar="[CAMERA=]FILE", help="calibration file (YAML); with several "
+                     "cameras one per camera, CAMERA=FILE, the name the views give as \"camera\"")
     loc.add_argument("--view", action="append", required=True, dest="views",
                      help="view file (JSON); give two or more")
     loc.add_argument("--job", help="job file: nominal seam region, normal, weld parameters, "
@@ -108,23 +110,57 @@ def _save_overlay(path: Path, image: np.ndarray, det: Any) -> None:
     atomic_write_bytes(path, buf.tobytes())
 
 
+def parse_calibration_args(items: list[str]) -> dict[str | None, str]:
+    """``--calibration`` values to {camera name or None: file}; :class:`InputError` on misuse.
+
+    ``FILE`` is one calibration for every view (key None); ``NAME=FILE`` is camera NAME's. A value
+    that is an existing file is a file even if its name holds ``=``.
+    """
+    from controller.errors import InputError
+    from controller.geometry.view_file import camera_name_problem
+
+    out: dict[str | None, str] = {}
+    for item in items:
+        name: str | None = None
+        path = item
+        if "=" in item and not Path(item).is_file():
+            name, path = item.split("=", 1)
+            if (problem := camera_name_problem(name)) is not None:
+                raise InputError(f"--calibration {item}: {problem}")
+        if name in out:
+            raise InputError(f"--calibration {item}: "
+                             + (f"camera {name!r} is given twice" if name else
+                                "give one unnamed calibration, or CAMERA=FILE per camera"))
+        out[name] = path
+    if None in out and len(out) > 1:
+        raise InputError("--calibration: give one unnamed calibration (every view) or "
+                         "CAMERA=FILE per camera, not both")
+    return out
+
+
 def _locate(args: argparse.Namespace) -> int:
-    from calibration.calibration_file import load_calibration
+    from calibration.calibration_file import Calibration, load_calibration
     from controller.cell.cycle import locate_output
     from controller.cell.job import load_job
     from controller.geometry.kinematics import irb2400
     from controller.geometry.view_file import load_view
     from controller.path.weld_path import WeldParams, WorkspaceBox, plan_weld
     from controller.stereo.locate import QualityLimits, ViewObservation, locate_seam
-    from controller.stereo.view_geometry import camera_pose, nominal_normal_from_views
+    from controller.stereo.view_geometry import (
+        calibration_for_view,
+        camera_pose,
+        nominal_normal_from_views,
+    )
     from controller.vision.image_io import load_image
     from controller.vision.seam_detect import detect_seam
 
-    calib = load_calibration(args.calibration)
+    calibs: dict[str | None, Calibration] = {
+        name: load_calibration(f) for name, f in parse_calibration_args(args.calibrations).items()}
     job = load_job(args.job) if args.job else None
     obs = []
     for vpath in args.views:
         view = load_view(vpath)
+        calib = calibration_for_view(view, calibs)
         image = load_image(view.image_path, camera=calib.camera)
         det = detect_seam(image, camera=calib.camera)
         if args.overlay_dir:
@@ -139,11 +175,25 @@ def _locate(args: argparse.Namespace) -> int:
     seam = locate_seam(obs, limits, spacing_mm=None if count else spacing, count=count,
                        nominal_region=region)
     path = None
+    refused: SeamguideError | None = None
     if not args.no_path:
         normal = (np.asarray(job.seam.normal) if job and job.seam.normal
                   else nominal_normal_from_views([o.T_base_cam for o in obs]))
         params = job.weld_params() if job else WeldParams()
         box = job.workspace() if job else WorkspaceBox()
-        path = plan_weld(irb2400(), seam.points_mm, normal, params, box)
-    emit_json(locate_output(seam, path), args.output)
+        try:
+            path = plan_weld(irb2400(), seam.points_mm, normal, params, box)
+        except SeamguideError as err:
+            # locate is a measuring tool too: the seam is written even when it cannot be welded.
+            refused = err
+    doc = locate_output(seam, path)
+    if refused is not None:
+        doc["weld_path"] = None
+        doc["weld_path_error"] = {"error": type(refused).__name__, "reason": str(refused),
+                                  "exit_code": refused.exit_code}
+    emit_json(doc, args.output)
+    if refused is not None:
+        print(f"seamguide locate: the seam was located and written, but no weld path: {refused}",
+              file=sys.stderr)
+        return refused.exit_code
     return 0
