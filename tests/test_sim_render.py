@@ -100,3 +100,111 @@ def test_bad_arguments(scene):
         render(scene, CAM, np.eye(4), seed=0, ss=0)
     with pytest.raises(ConfigError):
         suggest_view_poses(scene, CAM, n=0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Wide looks: each phenomenon with its truth
+# ---------------------------------------------------------------------------------------------
+NEUTRAL = dict(bow_mm=0.0, ragged_mm=0.0, taper=0.0, tilt_a_rad=0.0, tilt_b_rad=0.0,
+               key_shadow=(), ring_glare=0.0, jpeg_quality=0, scanner_dots=0, pens=0,
+               pen_cross=False, step_shadow_mm=0.0, corner_mm=0.0, cast_bgr=None, tacks=0,
+               spatter=0, ground_mm=(0.0, 0.0), rust=0.0, pits=0.0, spot=0.0, table="plain",
+               standoff_mm=350.0, gap_contrast=0.9)
+
+
+def _wide(seed=2, glare=0.0, **look):
+    return make_scene("straight", seed, "easy", variety="wide", look={**NEUTRAL, **look},
+                      noise_dn=0.0, blur_px=0.6, glare=glare, uneven_light=0.0, gap_mm=1.2,
+                      length_mm=150.0)
+
+
+def _at(img, P):
+    P = np.round(np.asarray(P)).astype(int)
+    return img[P[:, 1], P[:, 0]].astype(float)
+
+
+def test_tack_welds_bridge_the_gap_and_are_reported_as_occluded_spans():
+    sc = _wide(tacks=2, spatter=0)
+    r = render(sc, CAM, suggest_view_poses(sc, CAM)[0], seed=0)
+    assert len(r.occluded_spans_px) == 2
+    s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(r.seam_px, axis=0), axis=1))])
+    inside = np.zeros(len(s), bool)
+    for s0, s1 in r.occluded_spans_px:
+        assert 0 <= s0 < s1 <= s[-1]
+        inside |= (s > s0 + 1) & (s < s1 - 1)
+    vals = _at(r.image, r.seam_px)
+    open_ = ~inside
+    for s0, s1 in r.occluded_spans_px:
+        open_ &= (s < s0 - 4) | (s > s1 + 4)
+    for s0, s1 in r.occluded_spans_px:  # a bright bead over the gap (its crater may be dark)
+        span = (s > s0 + 1) & (s < s1 - 1)
+        assert np.percentile(vals[span], 75) > np.median(vals[open_]) + 40
+
+
+def test_pen_lines_are_drawn_where_their_truth_says():
+    sc = _wide(pens=2)
+    r = render(sc, CAM, suggest_view_poses(sc, CAM)[0], seed=0)
+    assert len(r.pen_lines_px) == 2
+    for P in r.pen_lines_px:
+        d = np.min(np.linalg.norm(P[:, None, :] - r.seam_px[None, ::10, :], axis=2), axis=1)
+        assert d.min() > 3.0 * CAM.fx / 350.0 * 0.9  # at least 3 mm beside the joint
+        t = np.gradient(P, axis=0)
+        n = np.column_stack([-t[:, 1], t[:, 0]]) / np.linalg.norm(t, axis=1)[:, None]
+        on, off = _at(r.image, P[2:-2]), _at(r.image, (P + 6 * n)[2:-2])
+        assert np.median(np.abs(on - off)) > 15  # the ink differs from the sheet beside it
+
+
+def test_ends_leaving_the_image_are_image_border_ends():
+    from controller.cell.dry_run import VIEW2_ROLL_DEG
+    from controller.geometry.poses import make_pose, rotation_about
+
+    sc = make_scene("tack_open", 1, "medium")
+    poses = suggest_view_poses(sc, CAM)
+    poses[1] = poses[1] @ make_pose(rotation_about([0, 0, 1], np.radians(VIEW2_ROLL_DEG)))
+    for T in poses:
+        r = render(sc, CAM, T, seed=0)
+        assert r.end_kinds == ("image_border", "image_border")
+        assert r.occluded_spans_px  # tack welds in view
+    whole = render(_wide(), CAM, suggest_view_poses(_wide(), CAM)[0], seed=0)
+    assert whole.end_kinds == ("joint_end", "joint_end")
+
+
+def test_rounded_corners_end_the_truth_where_the_gap_has_doubled():
+    from drivers.sim.sim_gap import corner_cover
+
+    sc = _wide(corner_mm=8.0)
+    a = np.array([sc.a_end_mm, -sc.a_end_mm], np.float32)
+    for d in (sc.gap_mm, -sc.gap_mm):  # each edge has receded by half a gap there
+        assert np.allclose(corner_cover(sc, a, np.full(2, d, np.float32)), 0.0, atol=0.02)
+    r = render(sc, CAM, suggest_view_poses(sc, CAM)[0], seed=0)
+    assert r.end_kinds == ("joint_end", "joint_end") and r.end_tol_px > 0
+
+
+def test_colour_cast_and_jpeg():
+    grey = render(_wide(), CAM, suggest_view_poses(_wide(), CAM)[0], seed=0).image
+    sc = _wide(cast_bgr=(0.6, 1.0, 0.5))
+    col = render(sc, CAM, suggest_view_poses(sc, CAM)[0], seed=0).image
+    assert grey.ndim == 2 and col.shape == (*grey.shape, 3)
+    m = col.reshape(-1, 3).mean(0)
+    assert m[1] > m[0] > m[2]  # green tint
+    sj = _wide(jpeg_quality=40)
+    jpg = render(sj, CAM, suggest_view_poses(sj, CAM)[0], seed=0).image
+    diff = np.abs(jpg.astype(int) - grey.astype(int))
+    assert 0 < diff.mean() < 3
+
+
+def test_tilted_sheets_shade_differently_and_keep_the_seam():
+    flat = _wide(glare=1.0)  # metal: a tilt moves the sheen more than the diffuse light
+    tilted = _wide(glare=1.0, tilt_a_rad=np.radians(4.0), tilt_b_rad=np.radians(-4.0))
+    assert np.allclose(flat.seam_points_mm, tilted.seam_points_mm)
+    T = suggest_view_poses(flat, CAM)[0]
+    a, b = render(flat, CAM, T, seed=0), render(tilted, CAM, T, seed=0)
+    assert np.allclose(a.seam_px, b.seam_px)
+    t = np.gradient(a.seam_px, axis=0)
+    n = np.column_stack([-t[:, 1], t[:, 0]]) / np.linalg.norm(t, axis=1)[:, None]
+
+    def sides(r):  # mean grey 15 px either side of the seam
+        return _at(r.image, r.seam_px + 15 * n).mean(), _at(r.image, r.seam_px - 15 * n).mean()
+
+    (fa, fb), (ta, tb) = sides(a), sides(b)
+    assert abs((ta - tb) - (fa - fb)) > 4  # the two sides now face the light differently

@@ -1,23 +1,37 @@
 """Simulated workpiece: two metal sheets meeting along a seam on a cluttered table (base frame, mm).
 
 :func:`make_scene` builds a seeded, frozen :class:`Scene`: the seam's shape (``straight``, ``arc``,
-``s_curve``, ``nonplanar``), its length (100-250 mm of arc length), the gap between the sheets
-(0.3-1.2 mm), the two sheets' reflectance and brushing direction, the light, and the clutter drawn
-on the sheets and the table (marker dots, scratches, pen lines, table holes and slots, other
-plates). A difficulty knob (``easy``, ``medium``, ``hard``) sets how much clutter, glare, uneven
-light, noise and defocus there is. :mod:`drivers.sim.sim_render` turns a scene into an image.
+``s_curve``, ``nonplanar``), its length, the gap between the sheets, the two sheets' reflectance
+and brushing direction, the light, and the clutter drawn on the sheets and the table. A difficulty
+knob (``easy``, ``medium``, ``hard``) sets how much clutter, glare, uneven light, noise and
+defocus there is. :mod:`drivers.sim.sim_render` turns a scene into an image.
+
+Varieties. ``classic`` (the default) is the scene the detector was first tuned on, unchanged for a
+given seed: length 100-250 mm, gap 0.3-1.2 mm, marker dots, scratches, short pen marks, a hole
+grid table, other plates. ``wide`` and ``pen`` draw a :class:`~drivers.sim.sim_look.Look` (gap
+1-30 px from barely darker than the sheet to black, thick tilted sheets with visible cut faces,
+bow, ragged edges, parallel pen lines, scanner dots, perforated and other tables, a key light's
+shadow, ring glare, colour casts, JPEG, and the real photographs' tack welds, spatter, ground
+strips, rust, pitting, lopsided gaps, rounded corners, dark close-ups), split into a tuning and a
+held-out part (:func:`drivers.sim.sim_look.split_of`). The preset ``tack_open`` is a straight
+tack-welded seam 460-520 mm long whose ends leave both images of the dry run.
 
 Geometry. The scene has a *local* frame: origin at the seam's chord midpoint on the sheets' top
 surface, ``a`` along the chord, ``b`` across it in the table plane, ``z`` up. The seam is the curve
 ``b = f(a)`` for ``|a| <= chord/2`` on the surface ``z = H(a)`` (``H = 0`` except for the
 ``nonplanar`` kind, whose sheets rise 10-40 mm in the middle like a joint between a flat and a
 bent sheet). Sheet A lies at ``b < f(a)``, sheet B at ``b > f(a)``; both end at ``a = +-chord/2``
-so the seam runs from one sheet border to the other. The table is ``thickness_mm`` below.
-``T_base_local`` places the part in the robot base frame (default centre (1000, 0, 300) mm, a
-random yaw).
+so the seam runs from one sheet border to the other (rounded corners end it a little earlier:
+:attr:`Scene.a_end_mm`). The table is ``thickness_mm`` below. ``T_base_local`` places the part in
+the robot base frame (default centre (1000, 0, 300) mm, a random yaw).
 
-What this does not model: sheet bevels and tack welds, sheets that do not touch the table, the gap
-varying along the seam, shadows cast by the raised sheets, occlusion of the seam by the part.
+Truth: ``seam_points_mm`` (the centreline of the nominal gap on the sheets' top surface; a
+ragged gap's local midpoint wanders about it), ``occluded_spans_mm`` (tack welds and spatter on
+the joint), :meth:`Scene.pen_lines_mm` (lines a detector must not return).
+
+What this does not model: sheet bevels, sheets that do not touch the table, a height step between
+the sheets (only its shadow is drawn), weld beads other than tacks, occlusion of the seam by the
+part, shadows cast by the raised sheets of the ``nonplanar`` kind.
 """
 
 from __future__ import annotations
@@ -30,35 +44,20 @@ from numpy.typing import NDArray
 
 from controller.errors import ConfigError
 from controller.geometry.poses import make_pose, rotation_about, transform_points
+from drivers.sim.sim_clutter import PEN_KINDS, Decal, classic_clutter, wide_clutter
+from drivers.sim.sim_look import VARIETIES, Look, draw_look
+from drivers.sim.sim_shapes import arc_length, chord_for_length, height, shape_f
 
 F64 = NDArray[np.float64]
 
 KINDS = ("straight", "arc", "s_curve", "nonplanar")
+#: Named scenes: (shape kind, variety). ``tack_open``: a straight tack-welded seam 460-520 mm long
+#: whose ends leave both images of the dry run's views.
+PRESETS = {"tack_open": ("straight", "tack_open")}
 DIFFICULTIES = ("easy", "medium", "hard")
 
 #: Default seam centre in the robot base frame (mm): on a table in front of the IRB 2400.
 DEFAULT_CENTRE_MM = (1000.0, 0.0, 300.0)
-
-
-@dataclass(frozen=True)
-class Decal:
-    """A mark on the sheets or the table, in local (a, b) mm: a dot, a line or a rectangle.
-
-    ``shape`` is ``"dot"`` (centre ``p0``, ``radius_mm``), ``"line"`` (``p0`` to ``p1``,
-    ``width_mm``) or ``"rect"`` (corners ``p0``, ``p1``, rotated by ``angle_rad`` about its
-    centre). ``value`` is the reflectance (0..1) painted there; ``layer`` is ``"part"``
-    (drawn only on the sheets), ``"table"`` (only on the table) or ``"all"``.
-    """
-
-    shape: str
-    p0: tuple[float, float]
-    p1: tuple[float, float] = (0.0, 0.0)
-    radius_mm: float = 0.0
-    width_mm: float = 0.0
-    angle_rad: float = 0.0
-    value: float = 0.0
-    layer: str = "part"
-    kind: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,27 +98,74 @@ class Scene:
     exposure: float
     decals: tuple[Decal, ...] = ()
     seam_points_mm: F64 = field(default_factory=lambda: np.zeros((0, 3)))
+    variety: str = "classic"
+    look: Look | None = None
+    #: Seam arc-length spans (mm from the first truth point) covered by tack welds or spatter.
+    occluded_spans_mm: tuple[tuple[float, float], ...] = ()
+    #: Chord coordinate |a| (mm) of the truth seam's ends: chord/2 less the rounded corners.
+    a_end_mm: float | None = None
+    #: How far (mm, along the seam) a rounded corner leaves the end position in doubt.
+    end_tol_mm: float = 0.0
 
     # ------------------------------------------------------------------ seam shape (local frame)
+    @property
+    def bow_mm(self) -> float:
+        """The joint's bow (mm) at its middle (0 for classic scenes)."""
+        return self.look.bow_mm if self.look is not None else 0.0
+
     def seam_b(self, a: NDArray[Any]) -> NDArray[Any]:
         """Across-chord offset b = f(a) (mm) of the seam at chord coordinate ``a`` (mm)."""
-        return _shape_f(self.kind, self.shape_mm, self.chord_mm, a)[0]
+        return shape_f(self.kind, self.shape_mm, self.chord_mm, a, self.bow_mm)[0]
 
     def seam_db(self, a: NDArray[Any]) -> NDArray[Any]:
         """Slope df/da of the seam in the table plane at ``a``."""
-        return _shape_f(self.kind, self.shape_mm, self.chord_mm, a)[1]
+        return shape_f(self.kind, self.shape_mm, self.chord_mm, a, self.bow_mm)[1]
 
     def seam_ddb(self, a: NDArray[Any]) -> NDArray[Any]:
         """Second derivative d2f/da2 (1/mm) of the seam at ``a``."""
-        return _shape_f(self.kind, self.shape_mm, self.chord_mm, a)[2]
+        return shape_f(self.kind, self.shape_mm, self.chord_mm, a, self.bow_mm)[2]
 
     def height(self, a: NDArray[Any]) -> NDArray[Any]:
         """Surface height H(a) (mm, local z) of the sheets at chord coordinate ``a``."""
-        return _height(self.kind, self.shape_mm, self.chord_mm, a)[0]
+        return height(self.kind, self.shape_mm, self.chord_mm, a)[0]
 
     def height_slope(self, a: NDArray[Any]) -> NDArray[Any]:
         """dH/da of the sheets' surface at ``a``."""
-        return _height(self.kind, self.shape_mm, self.chord_mm, a)[1]
+        return height(self.kind, self.shape_mm, self.chord_mm, a)[1]
+
+    def surface_z(self, a: NDArray[Any], b: NDArray[Any]) -> NDArray[Any]:
+        """Local z (mm) of the sheets' top at (a, b).
+
+        H(a), lowered by each sheet's tilt away from its joint edge (the tilt hinges on the edge,
+        so the seam itself stays at H(a)).
+        """
+        z = self.height(a)
+        if self.look is None or not (self.look.tilt_a_rad or self.look.tilt_b_rad):
+            return z
+        d = np.asarray(b) - self.seam_b(a)
+        g2 = self.gap_mm / 2
+        za = np.tan(self.look.tilt_a_rad) * np.maximum(-d - g2, 0.0)
+        zb = np.tan(self.look.tilt_b_rad) * np.maximum(d - g2, 0.0)
+        return np.asarray(z - za - zb)
+
+    def arc_table(self) -> tuple[F64, F64]:
+        """Dense (a, seam arc length in mm from the first truth point) for the whole chord."""
+        a, s = arc_length(self.kind, self.shape_mm, self.chord_mm, bow=self.bow_mm)
+        a_end = self.chord_mm / 2 if self.a_end_mm is None else self.a_end_mm
+        return a, s - float(np.interp(-a_end, a, s))
+
+    def pen_lines_mm(self) -> list[F64]:
+        """Lines drawn on the sheets that a detector must not return (pen, marker, soapstone).
+
+        Each is an (N, 3) polyline in the base frame (mm) on the sheets' top surface.
+        """
+        out = []
+        for d in self.decals:
+            if d.kind in PEN_KINDS:
+                P = np.asarray(d.points, dtype=np.float64)
+                local = np.column_stack([P, self.surface_z(P[:, 0], P[:, 1])])
+                out.append(transform_points(self.T_base_local, local))
+        return out
 
     @property
     def b_range_mm(self) -> tuple[float, float]:
@@ -159,60 +205,6 @@ class Scene:
 
 
 # ---------------------------------------------------------------------------------------------
-# Shape functions
-# ---------------------------------------------------------------------------------------------
-def _shape_f(kind: str, shape: float, chord: float,
-             a: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any]]:
-    a = np.asarray(a)
-    if kind == "arc":
-        # Circle of radius `shape` through (+-chord/2, 0), bulging toward +b.
-        R = shape
-        h0 = np.sqrt(R * R - (chord / 2) ** 2)
-        r = np.sqrt(np.maximum(R * R - a * a, 1e-9))
-        return r - h0, -a / r, -(R * R) / r**3
-    if kind == "s_curve":
-        k = 2 * np.pi / chord
-        return shape * np.sin(k * a), shape * k * np.cos(k * a), -shape * k * k * np.sin(k * a)
-    zero = np.zeros_like(a, dtype=np.float64 if a.dtype == np.float64 else np.float32)
-    return zero, zero, zero
-
-
-def _height(kind: str, shape: float, chord: float,
-            a: NDArray[Any]) -> tuple[NDArray[Any], NDArray[Any]]:
-    a = np.asarray(a)
-    if kind != "nonplanar":
-        zero = np.zeros_like(a, dtype=np.float64 if a.dtype == np.float64 else np.float32)
-        return zero, zero
-    # A smooth rise of `shape` mm in the middle: cos^2 over the chord, flat (H = 0) beyond.
-    k = np.pi / chord
-    inside = np.abs(a) <= chord / 2
-    c = np.cos(k * a)
-    H = np.where(inside, shape * c * c, 0.0)
-    dH = np.where(inside, -shape * k * 2 * c * np.sin(k * a), 0.0)
-    return H.astype(a.dtype, copy=False), dH.astype(a.dtype, copy=False)
-
-
-def _arc_length(kind: str, shape: float, chord: float, n: int = 4001) -> tuple[F64, F64]:
-    """Dense (a, cumulative 3D arc length) along the seam."""
-    a = np.linspace(-chord / 2, chord / 2, n)
-    b = _shape_f(kind, shape, chord, a)[0]
-    z = _height(kind, shape, chord, a)[0]
-    seg = np.sqrt(np.diff(a) ** 2 + np.diff(b) ** 2 + np.diff(z) ** 2)
-    return a, np.concatenate([[0.0], np.cumsum(seg)])
-
-
-def _chord_for_length(kind: str, shape_of_chord: Any, length: float) -> tuple[float, float]:
-    """Chord (and shape value) giving the wanted arc length, by fixed-point iteration."""
-    chord = length
-    shape = shape_of_chord(chord)
-    for _ in range(60):
-        shape = shape_of_chord(chord)
-        s = _arc_length(kind, shape, chord)[1][-1]
-        chord *= length / s
-    return chord, shape_of_chord(chord)
-
-
-# ---------------------------------------------------------------------------------------------
 # Builder
 # ---------------------------------------------------------------------------------------------
 _DIFF = {
@@ -230,30 +222,40 @@ _DIFF = {
 
 _OVERRIDABLE = {"length_mm", "gap_mm", "shape_mm", "centre_mm", "yaw_rad", "albedo_a", "albedo_b",
                 "albedo_table", "gap_floor", "glare", "uneven_light", "vignetting", "noise_dn",
-                "blur_px", "exposure", "clutter", "light_power", "ambient", "brush_contrast"}
+                "blur_px", "exposure", "clutter", "light_power", "ambient", "brush_contrast",
+                "look"}
 
 
-def make_scene(kind: str, seed: int, difficulty: str = "medium", **overrides: Any) -> Scene:
+def make_scene(kind: str, seed: int, difficulty: str = "medium", variety: str = "classic",
+               **overrides: Any) -> Scene:
     """A seeded workpiece scene in the robot base frame (mm); same arguments, same scene.
 
-    ``kind`` is one of :data:`KINDS`, ``difficulty`` one of :data:`DIFFICULTIES`. Overrides (any of
-    ``length_mm``, ``gap_mm``, ``shape_mm`` (arc radius, S amplitude or non-planar rise),
-    ``centre_mm`` (3,), ``yaw_rad``, ``albedo_a``, ``albedo_b``, ``albedo_table``, ``gap_floor``,
-    ``glare``, ``uneven_light``, ``vignetting``, ``noise_dn``, ``blur_px``, ``exposure``,
-    ``light_power``, ``ambient``, ``brush_contrast``, ``clutter`` (False: no decals)) replace the
-    drawn values. Raises :class:`ConfigError` for an unknown kind, difficulty or override, or a
-    value out of range (length 100-250 mm, gap 0.3-1.2 mm are the specified ranges; others are
-    accepted with a warning-free clamp-free check that they are positive).
+    ``kind`` is one of :data:`KINDS` or a preset of :data:`PRESETS`, ``difficulty`` one of
+    :data:`DIFFICULTIES`, ``variety`` one of :data:`drivers.sim.sim_look.VARIETIES` (``classic``:
+    the scenes the detector was first tuned on, unchanged; ``wide``, ``pen``: see
+    :mod:`drivers.sim.sim_look`). Overrides (any of ``length_mm``, ``gap_mm``, ``shape_mm`` (arc
+    radius, S amplitude or non-planar rise), ``centre_mm`` (3,), ``yaw_rad``, ``albedo_a``,
+    ``albedo_b``, ``albedo_table``, ``gap_floor``, ``glare``, ``uneven_light``, ``vignetting``,
+    ``noise_dn``, ``blur_px``, ``exposure``, ``light_power``, ``ambient``, ``brush_contrast``,
+    ``clutter`` (False: no decals), ``look`` (a dict of :class:`Look` fields, not classic))
+    replace the drawn values. Raises :class:`ConfigError` for an unknown kind, difficulty, variety
+    or override, or a value out of range (classic: length 100-250 mm, gap 0.3-1.2 mm; other
+    varieties: length 50-600 mm, gap 0.05-5 mm).
     """
+    if kind in PRESETS:
+        kind, variety = PRESETS[kind]
     if kind not in KINDS:
-        raise ConfigError(f"scene kind {kind!r} unknown; use one of {', '.join(KINDS)}")
+        raise ConfigError(f"scene kind {kind!r} unknown; use one of "
+                          f"{', '.join(KINDS + tuple(PRESETS))}")
     if difficulty not in DIFFICULTIES:
         raise ConfigError(f"scene difficulty {difficulty!r} unknown; use one of "
                           f"{', '.join(DIFFICULTIES)}")
+    if variety not in VARIETIES:
+        raise ConfigError(f"scene variety {variety!r} unknown; use one of {', '.join(VARIETIES)}")
     unknown = set(overrides) - _OVERRIDABLE
-    if unknown:
-        raise ConfigError(f"make_scene: unknown override(s) {sorted(unknown)}; known: "
-                          f"{sorted(_OVERRIDABLE)}")
+    if unknown or ("look" in overrides and variety == "classic"):
+        raise ConfigError(f"make_scene: unknown override(s) {sorted(unknown or {'look'})}; known: "
+                          f"{sorted(_OVERRIDABLE)} ('look' not with the classic variety)")
     cfg: dict[str, Any] = _DIFF[difficulty]
     # One generator per aspect, so that overriding one value does not reshuffle the others.
     ss = np.random.SeedSequence([int(seed), KINDS.index(kind), DIFFICULTIES.index(difficulty)])
@@ -264,25 +266,11 @@ def make_scene(kind: str, seed: int, difficulty: str = "medium", **overrides: An
 
     length = float(overrides.get("length_mm", u(g_shape, (100.0, 250.0))))
     gap = float(overrides.get("gap_mm", u(g_shape, cfg["gap"])))
-    if not 100.0 <= length <= 250.0:
-        raise ConfigError(f"make_scene: length_mm {length} outside 100-250 mm")
-    if not 0.3 <= gap <= 1.2:
-        raise ConfigError(f"make_scene: gap_mm {gap} outside 0.3-1.2 mm")
     shape_draw = {"straight": 0.0,
                   "arc": u(g_shape, (0.75, 1.6)),        # radius as a multiple of the chord
                   "s_curve": u(g_shape, (0.06, 0.14)),   # amplitude as a fraction of the chord
                   "nonplanar": u(g_shape, (10.0, 40.0))}[kind]
     yaw = float(overrides.get("yaw_rad", u(g_shape, (-np.pi, np.pi))))
-    if "shape_mm" in overrides:
-        fixed = float(overrides["shape_mm"])
-        chord, shape = _chord_for_length(kind, lambda c: fixed, length)
-    elif kind in ("arc", "s_curve"):
-        chord, shape = _chord_for_length(kind, lambda c: shape_draw * c, length)
-    else:
-        chord, shape = _chord_for_length(kind, lambda c: shape_draw, length)
-    if kind == "arc" and shape <= chord / 2:
-        raise ConfigError(f"make_scene: arc radius {shape:.1f} mm must exceed half the chord "
-                          f"{chord / 2:.1f} mm (at most a half circle)")
     centre = np.asarray(overrides.get("centre_mm", DEFAULT_CENTRE_MM), dtype=np.float64)
     T_base_local = make_pose(rotation_about((0.0, 0.0, 1.0), yaw), centre)
 
@@ -307,78 +295,90 @@ def make_scene(kind: str, seed: int, difficulty: str = "medium", **overrides: An
         blur_px=float(overrides.get("blur_px", u(g_look, cfg["blur"]))),
         exposure=float(overrides.get("exposure", u(g_look, (0.85, 1.1)))),
     )
+    wa, wb = u(g_shape, (60.0, 110.0)), u(g_shape, (60.0, 110.0))
+    thickness, wide = 3.0, None
+    if variety != "classic":
+        g_wide = np.random.default_rng(np.random.SeedSequence(
+            [int(seed), KINDS.index(kind), DIFFICULTIES.index(difficulty),
+             1000 + VARIETIES.index(variety)]))
+        wide, base = draw_look(g_wide, int(seed), difficulty, variety, min(albedo_a, albedo_b))
+        try:
+            wide = replace(wide, **dict(overrides.get("look", {})))
+        except TypeError as err:
+            raise ConfigError(f"make_scene: look override: {err}") from err
+        for key, val in base.items():
+            if key == "length_mm":
+                length = float(overrides.get(key, val))
+            elif key == "gap_mm":
+                gap = float(overrides.get(key, val))
+            elif key not in overrides:
+                look[key] = val
+        if "gap_floor" not in overrides:
+            look["gap_floor"] = min(albedo_a, albedo_b) * (1.0 - wide.gap_contrast)
+        if wide.table == "dark" and "albedo_table" not in overrides:
+            look["albedo_table"] = float(g_wide.uniform(0.03, 0.08))
+        thickness = float(g_wide.uniform(2.0, 6.0))
+    lo_len, hi_len, lo_gap, hi_gap = (100.0, 250.0, 0.3, 1.2) if wide is None else \
+        (50.0, 600.0, 0.05, 5.0)
+    if not lo_len <= length <= hi_len:
+        raise ConfigError(f"make_scene: length_mm {length} outside {lo_len:g}-{hi_len:g} mm")
+    if not lo_gap <= gap <= hi_gap:
+        raise ConfigError(f"make_scene: gap_mm {gap} outside {lo_gap:g}-{hi_gap:g} mm")
     for key in ("gap_floor", "light_power", "noise_dn", "blur_px", "exposure"):
         if not np.isfinite(look[key]) or look[key] < 0:
             raise ConfigError(f"make_scene: {key} must be a finite number >= 0, got {look[key]}")
-
-    wa, wb = u(g_shape, (60.0, 110.0)), u(g_shape, (60.0, 110.0))
+    bow = wide.bow_mm if wide is not None else 0.0
+    if "shape_mm" in overrides:
+        fixed = float(overrides["shape_mm"])
+        chord, shape = chord_for_length(kind, lambda c: fixed, length, bow)
+    elif kind in ("arc", "s_curve"):
+        chord, shape = chord_for_length(kind, lambda c: shape_draw * c, length, bow)
+    else:
+        chord, shape = chord_for_length(kind, lambda c: shape_draw, length, bow)
+    if kind == "arc" and shape <= chord / 2:
+        raise ConfigError(f"make_scene: arc radius {shape:.1f} mm must exceed half the chord "
+                          f"{chord / 2:.1f} mm (at most a half circle)")
+    a_end, end_tol = _corner_trim(chord, gap, wide.corner_mm if wide is not None else 0.0)
     scene = Scene(kind=kind, seed=int(seed), difficulty=difficulty, length_mm=length, gap_mm=gap,
                   chord_mm=chord, shape_mm=shape, T_base_local=T_base_local,
-                  sheet_a_width_mm=wa, sheet_b_width_mm=wb, thickness_mm=3.0, **look)
+                  sheet_a_width_mm=wa, sheet_b_width_mm=wb, thickness_mm=thickness, **look,
+                  variety=variety, look=wide, a_end_mm=a_end, end_tol_mm=end_tol)
     pts = _seam_points(scene)
     decals: tuple[Decal, ...] = ()
+    spans: tuple[tuple[float, float], ...] = ()
     if overrides.get("clutter", True):
-        decals = _clutter(scene, cfg, g_clutter)
-    return replace(scene, seam_points_mm=pts, decals=decals)
+        if wide is None:
+            decals = classic_clutter(scene, cfg, g_clutter)
+        else:
+            decals, spans = wide_clutter(scene, np.random.default_rng(
+                np.random.SeedSequence([int(seed), KINDS.index(kind), 77, len(VARIETIES)])))
+    return replace(scene, seam_points_mm=pts, decals=decals, occluded_spans_mm=spans)
+
+
+def _corner_trim(chord: float, gap: float, r: float) -> tuple[float | None, float]:
+    """(|a| of the truth ends, their doubt in mm) for plate corners rounded with radius ``r``.
+
+    A rounded corner widens the gap toward the sheet border; the truth end is where the gap is
+    twice its width, and the doubt is half the distance between 1.25x and 2x the width.
+    """
+    if r <= gap:
+        return None, 0.0
+
+    def x_at(widen: float) -> float:  # distance from the border where each edge recedes by widen
+        return float(r - np.sqrt(max(r * r - (r - widen) ** 2, 0.0)))
+
+    x_end = x_at(gap / 2)
+    return chord / 2 - x_end, (x_at(gap / 8) - x_end) / 2
 
 
 def _seam_points(scene: Scene, step_mm: float = 0.2) -> F64:
-    a_dense, s_dense = _arc_length(scene.kind, scene.shape_mm, scene.chord_mm)
-    n = max(int(np.ceil(s_dense[-1] / step_mm)) + 1, 2)
-    a = np.interp(np.linspace(0.0, s_dense[-1], n), s_dense, a_dense)
+    a_dense, s_dense = arc_length(scene.kind, scene.shape_mm, scene.chord_mm, bow=scene.bow_mm)
+    if scene.a_end_mm is not None:
+        s0, s1 = (float(v) for v in np.interp([-scene.a_end_mm, scene.a_end_mm], a_dense,
+                                              s_dense))
+    else:
+        s0, s1 = 0.0, float(s_dense[-1])
+    n = max(int(np.ceil((s1 - s0) / step_mm)) + 1, 2)
+    a = np.interp(np.linspace(s0, s1, n), s_dense, a_dense)
     local = np.column_stack([a, scene.seam_b(a), scene.height(a)])
     return transform_points(scene.T_base_local, local)
-
-
-def _clutter(scene: Scene, cfg: dict[str, Any], rng: np.random.Generator) -> tuple[Decal, ...]:
-    """Marker dots, scratches and pen lines on the sheets; holes, slots, plates on the table."""
-    half = scene.chord_mm / 2
-    b_lo, b_hi = scene.b_range_mm
-    out: list[Decal] = []
-
-    def on_sheet(clearance: float) -> tuple[float, float]:
-        for _ in range(100):
-            a = float(rng.uniform(-half + 3, half - 3))
-            b = float(rng.uniform(b_lo + 3, b_hi - 3))
-            if abs(b - float(scene.seam_b(np.array([a]))[0])) > clearance:
-                return a, b
-        return a, b
-
-    for _ in range(int(rng.integers(cfg["dots"][0], cfg["dots"][1] + 1))):
-        r = float(rng.uniform(2.0, 5.0))
-        a, b = on_sheet(r + 2.0)
-        val = 0.03 if rng.random() < 0.6 else 0.95
-        out.append(Decal("dot", (a, b), radius_mm=r, value=val, kind="marker"))
-    for _ in range(int(rng.integers(cfg["scratches"][0], cfg["scratches"][1] + 1))):
-        a, b = on_sheet(1.0)
-        ang = float(rng.uniform(-np.pi, np.pi))
-        ln = float(rng.uniform(5.0, 60.0))
-        a1, b1 = a + ln * np.cos(ang), b + ln * np.sin(ang)
-        val = float(rng.uniform(0.3, 0.95))
-        out.append(Decal("line", (a, b), (a1, b1), width_mm=float(rng.uniform(0.1, 0.3)),
-                         value=val, kind="scratch"))
-    for _ in range(int(rng.integers(cfg["pens"][0], cfg["pens"][1] + 1))):
-        a, b = on_sheet(6.0)
-        # Pen marks are often drawn parallel to the joint (a hand-drawn guide line).
-        ang = float(rng.uniform(-0.3, 0.3)) if rng.random() < 0.5 else float(rng.uniform(-1.5, 1.5))
-        ln = float(rng.uniform(8.0, 35.0))
-        out.append(Decal("line", (a, b), (a + ln * np.cos(ang), b + ln * np.sin(ang)),
-                         width_mm=float(rng.uniform(0.4, 0.8)), value=0.08, kind="pen"))
-    # Table: a grid of holes (a welding table), long slots, other plates lying around.
-    pitch = float(rng.uniform(40.0, 60.0))
-    off = rng.uniform(0, pitch, 2)
-    rad = float(rng.uniform(6.0, 9.0))
-    span = half + 200.0
-    for ga in np.arange(-span + off[0], span, pitch):
-        for gb in np.arange(b_lo - 200 + off[1], b_hi + 200, pitch):
-            out.append(Decal("dot", (float(ga), float(gb)), radius_mm=rad, value=0.02,
-                             layer="table", kind="hole"))
-    for _ in range(int(rng.integers(cfg["plates"][0], cfg["plates"][1] + 1))):
-        side = rng.choice([-1, 1])
-        cb = (b_hi + rng.uniform(15, 80)) if side > 0 else (b_lo - rng.uniform(15, 80))
-        ca = float(rng.uniform(-half - 60, half + 60))
-        w, h = float(rng.uniform(20, 90)), float(rng.uniform(10, 60))
-        out.append(Decal("rect", (ca - w / 2, float(cb) - h / 2), (ca + w / 2, float(cb) + h / 2),
-                         angle_rad=float(rng.uniform(0, np.pi)), value=float(rng.uniform(0.3, 0.8)),
-                         layer="table", kind="plate"))
-    return tuple(out)

@@ -1,0 +1,76 @@
+import numpy as np
+import pytest
+
+from controller.errors import ConfigError
+from drivers.sim.sim_look import FX_NOMINAL, TABLES_HELDOUT, TABLES_TUNING, seeds_in, split_of
+from drivers.sim.sim_scene import make_scene
+
+
+def test_split_is_a_fixed_half_of_the_seeds():
+    parts = [split_of(s) for s in range(2000)]
+    assert parts == [split_of(s) for s in range(2000)]
+    assert 0.45 < parts.count("heldout") / 2000 < 0.55
+    held = seeds_in("heldout", 30, start=100)
+    assert len(held) == 30 and min(held) >= 100
+    assert all(split_of(s) == "heldout" for s in held)
+    assert not set(held) & set(seeds_in("tuning", 60, start=100))
+
+
+def test_the_two_parts_draw_from_disjoint_ranges():
+    for split in ("tuning", "heldout"):
+        tables = set()
+        for seed in seeds_in(split, 40):
+            sc = make_scene("straight", seed, "medium", variety="wide")
+            assert sc.look.split == split
+            tables.add(sc.look.table)
+            for tilt in (sc.look.tilt_a_rad, sc.look.tilt_b_rad):
+                k = int(np.degrees(abs(tilt)) / (4.0 / 6))  # 6 bins over 0-4 deg
+                assert k % 2 == (0 if split == "tuning" else 1)
+        allowed = TABLES_TUNING if split == "tuning" else TABLES_HELDOUT
+        assert tables <= set(allowed)
+    assert "slotted" not in TABLES_HELDOUT and "grid_lines" not in TABLES_TUNING
+
+
+@pytest.mark.parametrize("difficulty", ["easy", "medium", "hard"])
+def test_wide_gaps_span_hairline_to_wide(difficulty):
+    px = []
+    for seed in range(40):
+        sc = make_scene(["straight", "arc", "s_curve", "nonplanar"][seed % 4], seed, difficulty,
+                        variety="wide")
+        px.append(sc.gap_mm * FX_NOMINAL / sc.look.standoff_mm)
+        assert 2.0 <= sc.thickness_mm <= 6.0
+        assert abs(sc.look.tilt_a_rad) <= np.radians(4.0) + 1e-9
+        assert 0.0 <= sc.look.bow_mm <= 1.5
+    assert min(px) >= 1.0 and max(px) <= 30.0
+    assert min(px) < 3.5 and max(px) > 10.0
+
+
+def test_wide_scene_truth_and_variety():
+    sc = make_scene("straight", 3, "hard", variety="wide", look={"bow_mm": 1.5, "corner_mm": 10.0})
+    P = sc.seam_points_mm
+    steps = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    assert steps.max() < 0.25 and steps.min() > 0.1
+    # rounded corners: the truth ends where the gap has doubled, short of the sheet border
+    assert sc.a_end_mm is not None and sc.a_end_mm < sc.chord_mm / 2 - 1.0
+    assert sc.end_tol_mm > 0
+    flat = make_scene("straight", 3, "hard", variety="wide", look={"bow_mm": 0.0})
+    a = np.linspace(-10, 10, 5)
+    assert np.allclose(sc.seam_b(np.zeros(1)) - flat.seam_b(np.zeros(1)), 1.5)
+    assert np.allclose(sc.seam_b(np.array([-sc.chord_mm / 2, sc.chord_mm / 2])), 0.0)
+    assert np.all(sc.seam_b(a) != flat.seam_b(a))
+    with pytest.raises(ConfigError, match="look"):
+        make_scene("arc", 3, "hard", variety="wide", look={"sparkle": 1})
+    with pytest.raises(ConfigError, match="variety"):
+        make_scene("arc", 3, variety="funky")
+    with pytest.raises(ConfigError):
+        make_scene("arc", 3, look={"tacks": 1})  # classic has no look
+
+
+def test_tack_open_preset():
+    sc = make_scene("tack_open", 1, "medium")
+    assert sc.variety == "tack_open" and sc.kind == "straight"
+    assert 460.0 <= sc.length_mm <= 520.0
+    assert len(sc.occluded_spans_mm) >= 4
+    for s0, s1 in sc.occluded_spans_mm:
+        assert 0 <= s0 < s1 <= sc.length_mm
+    assert any(d.layer == "over" and d.kind == "tack" for d in sc.decals)
