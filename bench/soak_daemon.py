@@ -96,9 +96,10 @@ def run_soak(folder: Path, cycles: int, seed: int, log=print, faults: list[str] 
             FaultyCamera.mode = fault
             timer = None
             if mock is not None:
-                mock.fail_at_point = int(rng.integers(2, 60)) if fault == \
+                mock.arm.fail_at_point = int(rng.integers(2, 60)) if fault == \
                     "controller_error_mid_weld" else None
-                mock.corrupt, mock.drop = (0.03, 0.02) if fault == "link_corruption" else (0, 0)
+                mock.line.corrupt, mock.line.drop = (0.03, 0.02) if fault == "link_corruption" \
+                    else (0, 0)
                 if fault == "link_disconnect":
                     timer = threading.Timer(float(rng.uniform(0.2, 2.0)), _disconnect, (mock,))
                     timer.start()

@@ -190,17 +190,20 @@ class DropAt(MockController):
     def __init__(self, at: int, what: str, **kw) -> None:
         super().__init__(**kw)
         self.at, self.what, self.fired = at, what, False
+        xp = self.server.handlers["XP"]
 
-    def _cmd_XP(self, a, after):
-        reply = super()._cmd_XP(a, after)
-        if not self.fired and a and a[0] == str(self.at):
-            self.fired = True
-            if self.what == "disconnect":
-                self.disconnect(wait=False)  # the reply is lost with the line
-            else:
-                self.restart()
-                self._tool = np.eye(4)  # and someone edited the tool on the pendant meanwhile
-        return reply
+        def nasty_xp(a, after):
+            reply = xp(a, after)
+            if not self.fired and a and a[0] == str(self.at):
+                self.fired = True
+                if self.what == "disconnect":
+                    self.disconnect(wait=False)  # the reply is lost with the line
+                else:
+                    self.restart()
+                    self.arm.tool = np.eye(4)  # and someone edited the tool on the pendant
+            return reply
+
+        self.server.handlers["XP"] = nasty_xp
 
 
 def _robot_on(mock: MockController, **kw):
@@ -248,14 +251,15 @@ def test_controller_restart_mid_path_is_reported_and_nothing_replayed():
 
 
 def test_lost_completion_event_is_recovered_from_status():
-    class NoEvents(MockController):
-        def _event(self, body):
-            if body.startswith("IP"):
-                self._event_seq = (self._event_seq + 1) % 100
-                return  # swallowed
-            super()._event(body)
+    mock = MockController()
+    send = mock.line.send
 
-    with _robot_on(NoEvents()) as robot:
+    def lose_in_position(kind, seq, body, delay_s=0.0):
+        if not (kind == "E" and body.startswith("IP")):  # swallowed; its event number is spent
+            send(kind, seq, body, delay_s)
+
+    mock.line.send = lose_in_position
+    with _robot_on(mock) as robot:
         h = robot.move_joints([10, 0, 0, 0, 30, 0], speed_mm_s=200)
         h.wait(5.0)
         assert h.state == "done"

@@ -81,9 +81,9 @@ def test_link_corruption_before_the_weld(tmp_path):
     with SimRig(speedup=200.0) as rig:
         def on_state(name):
             if name == "capturing" and rig.mock.executed and len(rig.mock.executed) >= 2:
-                rig.mock.corrupt = 1.0  # the line goes bad for good while view 2 is taken
+                rig.mock.line.corrupt = 1.0  # the line goes bad for good while view 2 is taken
         result = rig.cycle(tmp_path, on_state=on_state).run()
-        rig.mock.corrupt = 0.0
+        rig.mock.line.corrupt = 0.0
         assert_safe_fault(rig, result, "")
         assert type(result.error).__name__ in ("LinkError", "ProtocolError", "MotionTimeout")
 

@@ -1,9 +1,10 @@
 """The mock controller's transport: a real pseudo-terminal served by a thread.
 
-:class:`MockPty` serves the protocol server (:class:`drivers.mock.mock_server.MockServer`) on
-``os.openpty`` behind a stable symlink path (:meth:`MockPty.serve_pty`), so the client's pyserial
-code runs for real. A disconnect (:meth:`MockPty.disconnect`, or the ``disconnect`` fault) opens a
-new pty behind the same path; the controller state survives it.
+:class:`PtyTransport` serves a line (:class:`drivers.mock.mock_line.MockLine`: bytes in, bytes
+out) on ``os.openpty`` behind a stable symlink path (:meth:`PtyTransport.serve`), so the client's
+pyserial code runs for real. A disconnect (:meth:`PtyTransport.disconnect`, or the line's
+``disconnect`` fault) opens a new pty behind the same path; whatever is behind the line survives
+it. Knows nothing of the protocol: it moves bytes and runs what the line's schedule has due.
 """
 
 from __future__ import annotations
@@ -15,19 +16,24 @@ import tempfile
 import threading
 import time
 import tty
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Self
 
 from controller.errors import ConfigError
-from drivers.mock.mock_server import MockServer
+from drivers.mock.mock_line import MockLine
 
 
-class MockPty(MockServer):
-    """The mock controller served on a pseudo-terminal in a thread; stop it with :meth:`stop`."""
+class PtyTransport:
+    """Serves ``line`` on a pseudo-terminal in a thread; stop it with :meth:`stop`.
 
-    def __init__(self, **options: Any) -> None:
-        """Options as :class:`~drivers.mock.mock_link.MockLink` takes them."""
-        super().__init__(**options)
+    ``on_disconnect`` is called (under the line's lock) each time the link is dropped.
+    """
+
+    def __init__(self, line: MockLine, on_disconnect: Callable[[], None] | None = None) -> None:
+        self.line = line
+        self.on_disconnect = on_disconnect
+        self._thread: threading.Thread | None = None
+        self._wake_r, self._wake_w = -1, -1
         self._stop = threading.Event()
         self._master = self._slave = -1
         self.link_path: str | None = None
@@ -35,7 +41,19 @@ class MockPty(MockServer):
         self._swap_request = threading.Event()
         self._swap_done = threading.Event()
 
-    def _drop_link(self) -> None:
+    @property
+    def serving(self) -> bool:
+        """True between :meth:`serve` and :meth:`stop`."""
+        return self._thread is not None
+
+    def wake(self) -> None:
+        """Wake the serving thread (something new is scheduled)."""
+        if self._wake_w >= 0:
+            with contextlib.suppress(BlockingIOError, OSError):
+                os.write(self._wake_w, b"x")
+
+    def drop_link(self) -> None:
+        """Drop the link from inside the serving thread (the line's ``disconnect`` fault)."""
         self._swap_done.clear()
         self._swap_request.set()
 
@@ -44,13 +62,13 @@ class MockPty(MockServer):
 
         The controller state (session, remembered reply, motion) survives, as when a cable is
         pulled and plugged back; replies not yet written are lost. Only for a mock served with
-        :meth:`serve_pty`. ``wait=False`` returns at once (for use inside the mock's own thread).
+        :meth:`serve`. ``wait=False`` returns at once (for use inside the mock's own thread).
         """
         if self._thread is None:
             raise ConfigError("disconnect() needs a mock served on a pty (serve_pty)")
         self._swap_done.clear()
         self._swap_request.set()
-        self._wake()
+        self.wake()
         if wait and not self._swap_done.wait(timeout_s):
             raise ConfigError("mock controller did not swap its pty in time")
 
@@ -71,7 +89,7 @@ class MockPty(MockServer):
         os.symlink(target, tmp)
         os.replace(tmp, self.link_path)
 
-    def serve_pty(self, link_path: str | None = None) -> str:
+    def serve(self, link_path: str | None = None) -> str:
         """Serve on a new pseudo-terminal in a thread; return the stable symlink path to open.
 
         ``link_path`` (default: a new temporary directory's ``robot``) must not be an existing
@@ -92,6 +110,8 @@ class MockPty(MockServer):
         os.set_blocking(self._wake_r, False)
         os.set_blocking(self._wake_w, False)
         self._stop.clear()
+        self.line.on_drop = self.drop_link
+        self.line.schedule.on_change = self.wake
         self._thread = threading.Thread(target=self._serve, name="mock-controller", daemon=True)
         self._thread.start()
         return self.link_path
@@ -99,18 +119,19 @@ class MockPty(MockServer):
     def _serve(self) -> None:
         pending = b""
         while not self._stop.is_set():
-            pending += self.run_due()
+            pending += self.line.run_due()
             if self._swap_request.is_set():  # after run_due: replies not yet written are lost
                 self._swap_request.clear()
-                with self._lock:
+                with self.line.lock:
                     old = (self._master, self._slave)
                     name = self._open_pty()  # before closing: a new /dev/pts number
                     for fd in old:
                         os.close(fd)
                     pending = b""
-                    self._splitter.clear()
+                    self.line.clear()
                     self._point_link(name)
-                    self.action_log.append("disconnect")
+                    if self.on_disconnect is not None:
+                        self.on_disconnect()
                 self._swap_done.set()
             if pending:
                 try:
@@ -120,7 +141,7 @@ class MockPty(MockServer):
                     pass
                 except OSError:
                     pending = b""
-            due = self.next_due()
+            due = self.line.next_due()
             now = time.monotonic()
             wait = 0.2 if due is None else max(0.0, min(0.2, due - now))
             if pending:
@@ -138,16 +159,18 @@ class MockPty(MockServer):
                 except (BlockingIOError, OSError):
                     data = b""
                 if data:
-                    self.receive(data)
+                    self.line.receive(data)
 
     def stop(self) -> None:
         """Stop serving and remove the symlink (and the temporary directory it made)."""
         if self._thread is None:
             return
         self._stop.set()
-        self._wake()
+        self.wake()
         self._thread.join(timeout=5.0)
         self._thread = None
+        self.line.on_drop = None
+        self.line.schedule.on_change = None
         for fd in (self._master, self._slave, self._wake_r, self._wake_w):
             with contextlib.suppress(OSError):
                 os.close(fd)
@@ -158,9 +181,3 @@ class MockPty(MockServer):
             with contextlib.suppress(OSError):
                 os.rmdir(self._tmpdir)
             self._tmpdir = None
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
