@@ -67,6 +67,26 @@ class ControlSection:
 
 
 @dataclass(frozen=True)
+class HttpSection:
+    """The operator station (a web page and ``/metrics``); absent: no network listener.
+
+    ``bind`` other than a loopback address needs ``token_file`` (TOML, owner-only, with a
+    ``viewer`` and an ``operator`` token); see docs/operator-station.md.
+    """
+
+    bind: str = "127.0.0.1"
+    port: int = 8080
+    token_file: str | None = None
+    max_request_bytes: int = 16384
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.port <= 65535:
+            raise ConfigError(f"http.port must be 0..65535, got {self.port}")
+        if not 1024 <= self.max_request_bytes <= 1 << 20:
+            raise ConfigError("http.max_request_bytes must be 1024..1048576")
+
+
+@dataclass(frozen=True)
 class CellConfig:
     """The whole cell configuration; paths already resolved against the file's folder."""
 
@@ -80,6 +100,7 @@ class CellConfig:
     safe_joints_deg: tuple[float, ...] | None = None
     sim: SimSection | None = None
     log_file: str | None = None
+    http: HttpSection | None = None
     path: str = ""
 
     def job(self, name: str) -> Job:
@@ -122,7 +143,11 @@ def load_cell_config(path: str | os.PathLike[str]) -> CellConfig:
                                cfg.records.max_total_mb),
         control=ControlSection(res(cfg.control.socket), cfg.control.max_line_bytes),
         safe_joints_deg=cfg.safe_joints_deg, sim=cfg.sim,
-        log_file=res(cfg.log_file) if cfg.log_file else None, path=str(p))
+        log_file=res(cfg.log_file) if cfg.log_file else None,
+        http=(HttpSection(cfg.http.bind, cfg.http.port,
+                          res(cfg.http.token_file) if cfg.http.token_file else None,
+                          cfg.http.max_request_bytes) if cfg.http is not None else None),
+        path=str(p))
     if cfg.safe_joints_deg is not None:
         from controller.geometry.kinematics import check_joint_limits, irb2400
 

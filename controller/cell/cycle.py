@@ -280,6 +280,10 @@ class WeldCycle:
                 self._save_overlay(view.name, image, det)
             observations.append(ViewObservation(cam, T, det.points_px, view.name))
             self._remaining(t)
+        if self.record is not None:
+            self.record.note(detections=[
+                {"view": v.name, "confidence": round(float(d.confidence), 3)}
+                for v, d in zip(self.job.views, dets, strict=True)])
         seam = locate_seam(observations, self.job.quality, spacing_mm=self.job.seam.spacing_mm,
                            count=self.job.seam.count,
                            nominal_region=(np.asarray(self.job.seam.nominal_centre_mm),

@@ -21,6 +21,7 @@ import logging
 import signal
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +37,17 @@ from controller.errors import CameraError, ConfigError, LinkError, SeamguideErro
 from controller.path.weld_path import WeldPath
 
 log = logging.getLogger(__name__)
+
+
+def _read_doc(record_path: Path | None) -> dict[str, Any] | None:
+    if record_path is None:
+        return None
+    from controller.cell.cycle_record import read_record
+
+    try:
+        return read_record(record_path)
+    except SeamguideError:
+        return None
 
 #: The job timeout (a ``TimeoutsSpec`` field) that bounds each cycle state, for the watchdog.
 STATE_TIMEOUTS = {"moving_to_view": "move_s", "capturing": "capture_s", "locating": "locate_s",
@@ -115,6 +127,11 @@ class Daemon:
         self._checked_in = time.monotonic()
         self._busy_until = 0.0
         self._cycle_timeouts: Any = None
+        self._cycle_views: list[str] = []
+        #: Called (from the serve thread) with each event: ``("state", {"state": name})`` and
+        #: ``("cycle_end", {...last_cycle, "error_kind", "record_doc"})``; the operator
+        #: station's metrics listen here. An observer must not block or raise.
+        self.observers: list[Callable[[str, dict[str, Any]], None]] = []
 
     # ------------------------------------------------------------------ control requests
     def handle_request(self, req: dict[str, Any]) -> dict[str, Any]:
@@ -179,6 +196,9 @@ class Daemon:
                     "queue_length": len(self._pending), "counters": dict(self.counters),
                     "config_reloads": self.reloads,
                     "awaiting_confirmation": self._awaiting,
+                    "record": (str(self._cycle.record.path) if self._cycle is not None
+                               and self._cycle.record is not None else None),
+                    "views": list(self._cycle_views),
                     "last_cycle": self.last_cycle}
 
     def wait_cycles(self, n: int, timeout_s: float) -> bool:
@@ -346,6 +366,7 @@ class Daemon:
             self._cycle = cycle
             self._cycle_job = job_name
             self._cycle_timeouts = job.timeouts
+            self._cycle_views = [v.name for v in job.views]
         notify(f"STATUS=cycle of job {job_name} running")
         log.info("cycle of job %s started (requested by %s)", job_name, source)
         try:
@@ -362,8 +383,13 @@ class Daemon:
             self.counters[key] += 1
             self.last_cycle = {"job": job_name, "status": result.status,
                                "reason": result.reason,
-                               "record": str(result.record_path) if result.record_path else None}
+                               "record": str(result.record_path) if result.record_path else None,
+                               "views": [v.name for v in job.views]}
             self._ended.notify_all()
+        self._notify("cycle_end", {**self.last_cycle,
+                                   "error_kind": (type(result.error).__name__
+                                                  if result.error is not None else None),
+                                   "record_doc": _read_doc(result.record_path)})
         log.info("cycle of job %s ended %s%s", job_name, result.status,
                  f": {result.reason}" if result.reason else "")
         notify(f"STATUS=last cycle {result.status}; waiting for cycle requests")
@@ -409,6 +435,14 @@ class Daemon:
             limit = getattr(self._cycle_timeouts, STATE_TIMEOUTS.get(name, ""), None)
             self._cycle_state = name
         self._busy(limit if limit is not None else 60.0)
+        self._notify("state", {"state": name})
+
+    def _notify(self, event: str, data: dict[str, Any]) -> None:
+        for observer in list(self.observers):
+            try:
+                observer(event, data)
+            except Exception:  # an observer's bug must never stop a cycle
+                log.exception("observer of daemon event %s failed", event)
 
     def _busy(self, seconds: float) -> None:
         """The serve thread enters a wait bounded by ``seconds``: the watchdog keeps pinging."""

@@ -51,7 +51,16 @@ def _run(args: argparse.Namespace) -> int:
     if logging.getLogger().level > logging.INFO:
         logging.getLogger().setLevel(logging.INFO)
     daemon.install_signal_handlers()
-    return daemon.serve()
+    station = None
+    if daemon.cfg.http is not None:
+        from controller.station.bootstrap import start_station
+
+        station = start_station(daemon, daemon.cfg)
+    try:
+        return daemon.serve()
+    finally:
+        if station is not None:
+            station.stop()
 
 
 def _ctl(args: argparse.Namespace) -> int:
@@ -75,4 +84,13 @@ def _check(args: argparse.Namespace) -> int:
 
     for line in check_config(args.config):
         print(line, file=sys.stderr)
+    from controller.cell.cell_config import load_cell_config
+
+    cfg = load_cell_config(args.config)
+    if cfg.http is not None:
+        from controller.station.bootstrap import check_http
+
+        tokens = check_http(cfg.http)
+        print(f"operator station: http://{cfg.http.bind}:{cfg.http.port}/ "
+              f"({'tokens' if tokens else 'no token: loopback only'})", file=sys.stderr)
     return 0

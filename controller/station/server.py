@@ -1,0 +1,46 @@
+"""Serve the station with waitress (a pure-Python production WSGI server) in a daemon thread.
+
+waitress bounds request headers and bodies itself (``max_request_header_size``,
+``max_request_body_size``), and runs the application in a small thread pool, so a slow browser
+never blocks the cell's serve thread.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from typing import Any
+
+log = logging.getLogger("seamguide.station")
+
+
+class StationServer:
+    """The HTTP listener; :meth:`start` binds (port 0 picks a free one), :meth:`stop` closes."""
+
+    def __init__(self, app: Any, bind: str, port: int, max_request_bytes: int) -> None:
+        from waitress.server import create_server
+
+        self._server = create_server(app, host=bind, port=port, threads=4,
+                                     max_request_body_size=max_request_bytes,
+                                     max_request_header_size=max(8192, max_request_bytes),
+                                     ident="seamguide", clear_untrusted_proxy_headers=True)
+        self._thread: threading.Thread | None = None
+
+    @property
+    def url(self) -> str:
+        """``http://HOST:PORT`` the server listens on."""
+        host = str(self._server.effective_host)
+        host = f"[{host}]" if ":" in host else host
+        return f"http://{host}:{self._server.effective_port}"
+
+    def start(self) -> None:
+        """Serve in a background thread."""
+        self._thread = threading.Thread(target=self._server.run, name="station", daemon=True)
+        self._thread.start()
+        log.info("operator station at %s", self.url)
+
+    def stop(self) -> None:
+        """Close the listener and wait for the serving thread."""
+        self._server.close()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
