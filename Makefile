@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test demo lint venv clean bench
+.PHONY: test demo lint venv clean bench browser
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -18,8 +18,18 @@ lint: $(STAMP)
 	$(BIN)/ruff check controller drivers calibration tests bench
 	$(BIN)/mypy
 
-test: lint
+test: lint browser
 	$(BIN)/pytest -q
+
+# The operator station's browser tests need Chromium and its driver (Debian packages). Installed
+# here when missing and we may (root with apt-get); otherwise those tests skip, saying why.
+browser:
+	@if command -v chromium >/dev/null && command -v chromedriver >/dev/null; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	  echo "installing chromium and chromium-driver (Debian) for the browser tests"; \
+	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+	    chromium chromium-driver >/dev/null) || echo "could not install Chromium: the browser tests will skip"; \
+	else echo "no Chromium and not root: the browser tests will skip (apt-get install chromium chromium-driver)"; fi
 
 demo: $(STAMP)
 	$(BIN)/seamguide dry-run --output out/dry-run

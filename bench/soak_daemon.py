@@ -6,7 +6,9 @@ Faults are drawn per cycle (fixed seed): none, a controller error mid-weld (``fa
 burst of link corruption and dropped lines, a link disconnect mid-cycle, a camera that delivers no
 frame, an image without a seam. Checked after every cycle: the daemon is alive and answers, the
 cycle ended ``done`` or in a recorded fault with the arc off, its record is readable and final.
-At the end: no record lost, and the counters add up. Writes bench/out/soak_daemon.json.
+At the end: no record lost, and the counters add up; the operator station's ``/metrics`` is
+scraped every 10 cycles and at the end, and its cycles by outcome must equal the records'
+statuses. Writes bench/out/soak_daemon.json.
 """
 
 from __future__ import annotations
@@ -75,10 +77,16 @@ def run_soak(folder: Path, cycles: int, seed: int, log=print, faults: list[str] 
     """Run the soak; ``faults`` fixes the fault of each cycle instead of drawing it."""
     from daemon_harness import make_cell
 
-    cfg_path = make_cell(folder, time_scale=0.002)
+    cfg_path = make_cell(folder, time_scale=0.002,
+                         extra='\n[http]\nbind = "127.0.0.1"\nport = 0\n')
     real_open = daemon_mod.open_cell_camera
     daemon_mod.open_cell_camera = lambda cfg, robot: FaultyCamera(real_open(cfg, robot))
     d = daemon_mod.Daemon(cfg_path)
+    from controller.station.bootstrap import start_station
+
+    station = start_station(d, d.cfg)
+    assert station is not None
+    scrapes: list[dict[str, int]] = []
     t = threading.Thread(target=d.serve, daemon=True)
     t.start()
     if not d.ready.wait(60):
@@ -128,12 +136,16 @@ def run_soak(folder: Path, cycles: int, seed: int, log=print, faults: list[str] 
                 if doc["status"] != "done" and not doc.get("reason"):
                     problems.append(f"cycle {i}: fault without a reason")
             if (i + 1) % 10 == 0:
-                log(f"{i + 1}/{cycles} cycles, {dict(outcomes)}, {time.monotonic() - t0:.0f} s")
+                scrapes.append(scrape_cycles(station.url))
+                log(f"{i + 1}/{cycles} cycles, {dict(outcomes)}, {time.monotonic() - t0:.0f} s, "
+                    f"/metrics {scrapes[-1]}")
         alive = t.is_alive() and send_request(sock, {"cmd": "status"})["ok"]
         st = send_request(sock, {"cmd": "status"})
+        scrapes.append(scrape_cycles(station.url))
     finally:
         d.request_stop("soak over")
         t.join(120)
+        station.stop()
         daemon_mod.open_cell_camera = real_open
     c = st["counters"]
     records = [p for p in (folder / "records").iterdir() if (p / "record.json").is_file()]
@@ -144,11 +156,35 @@ def run_soak(folder: Path, cycles: int, seed: int, log=print, faults: list[str] 
         except Exception:  # noqa: BLE001 - counted, reported
             unreadable += 1
     total = c["cycles_done"] + c["cycles_faulted"] + c["cycles_aborted"]
+    by_status = Counter(read_record(p)["status"] for p in records)
+    camera_unavailable = sum(outcomes.values()) - len(records)  # no record: camera never opened
+    # /metrics counts every ended cycle; one whose camera never opened is a fault with no record.
+    expected = Counter(by_status)
+    expected["fault"] += camera_unavailable
+    expected = Counter({k: v for k, v in expected.items() if v})
     return {"cycles": cycles, "seconds": round(time.monotonic() - t0, 1),
             "daemon_alive": bool(alive), "outcomes": dict(outcomes),
             "by_fault": {k: dict(v) for k, v in by_fault.items()}, "counters": c,
             "counters_add_up": total == sum(outcomes.values()), "records": len(records),
-            "records_unreadable": unreadable, "problems": problems}
+            "records_unreadable": unreadable, "problems": problems,
+            "metrics_cycles_by_outcome": scrapes[-1] if scrapes else None,
+            "records_by_status": dict(by_status), "cycles_without_record": camera_unavailable,
+            "metrics_match_records": bool(scrapes) and scrapes[-1] == dict(expected),
+            "metrics_scrapes": len(scrapes)}
+
+
+def scrape_cycles(url: str) -> dict[str, int]:
+    """``seamguide_cycles_total`` from the station's /metrics, summed by outcome."""
+    import urllib.request
+
+    with urllib.request.urlopen(url + "/metrics", timeout=30) as r:
+        text = r.read().decode()
+    out: dict[str, int] = {}
+    for line in text.splitlines():
+        if line.startswith("seamguide_cycles_total{"):
+            outcome = line.split('outcome="')[1].split('"')[0]
+            out[outcome] = out.get(outcome, 0) + int(float(line.rsplit(" ", 1)[1]))
+    return out
 
 
 def main() -> int:
@@ -166,7 +202,8 @@ def main() -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(res, indent=1))
     print(json.dumps(res, indent=1))
-    return 0 if res["daemon_alive"] and not res["problems"] and res["counters_add_up"] else 1
+    ok = res["daemon_alive"] and not res["problems"] and res["counters_add_up"]
+    return 0 if ok and res["metrics_match_records"] else 1
 
 
 if __name__ == "__main__":

@@ -18,6 +18,8 @@ def test_daemon_survives_every_kind_of_fault(tmp_path):
     assert res["problems"] == []
     assert res["counters_add_up"] and res["records"] == len(faults)
     assert res["records_unreadable"] == 0
+    assert res["metrics_match_records"], (res["metrics_cycles_by_outcome"],
+                                          res["records_by_status"])
     assert res["by_fault"]["none"] == {"done": 1}
     for f in ("controller_error_mid_weld", "camera_failure", "no_seam"):
         assert res["by_fault"][f] == {"fault": 1}, f

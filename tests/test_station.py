@@ -205,3 +205,21 @@ def test_open_station_on_loopback_makes_everyone_operator(tmp_path):
     assert access.role(None) == "operator"
     assert access.csrf_ok(None, access.csrf_token(None))
     assert not access.csrf_ok(None, "0" * 64)
+
+
+def test_the_grafana_example_uses_only_metrics_we_export():
+    import re
+    from pathlib import Path
+
+    dash = json.loads((Path(__file__).parent.parent / "examples" / "grafana-dashboard.json")
+                      .read_text())
+    m = CellMetrics("t", link_stats=lambda: (1, {"retransmissions": 0, "reconnects": 0}),
+                    calibration_age_s=lambda: 5.0)
+    m.cycle_ended("done", None, {"detections": [{"confidence": 0.9}],
+                                 "states": [{"state": "welding", "duration_s": 1.0}]}, 1.0)
+    m.state_changed("idle")
+    exported = {ln.split("{")[0].split(" ")[0] for ln in m.exposition().decode().splitlines()
+                if ln and not ln.startswith("#")}
+    used = {name for p in dash["panels"] for t in p["targets"]
+            for name in re.findall(r"seamguide_[a-z_]+", t["expr"])}
+    assert used and used <= exported, used - exported

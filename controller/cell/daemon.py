@@ -356,6 +356,8 @@ class Daemon:
                                    "reason": f"camera unavailable: {self.camera_state}",
                                    "record": None}
                 self._ended.notify_all()
+            self._notify("cycle_end", {**self.last_cycle, "error_kind": "CameraError",
+                                       "record_doc": None})
             return
         assert self.calibration is not None
         cycle = WeldCycle(self.robot, self.camera, self.calibration, job,

@@ -40,7 +40,12 @@ class StationServer:
         log.info("operator station at %s", self.url)
 
     def stop(self) -> None:
-        """Close the listener and wait for the serving thread."""
-        self._server.close()
+        """Finish the requests being served, close every connection, wait for the thread."""
+        from waitress import wasyncore
+
+        # In this order: running tasks still wake the loop through its trigger when they end;
+        # closing every channel (the listener and the trigger included) then ends run().
+        self._server.task_dispatcher.shutdown(cancel_pending=True, timeout=5)
+        wasyncore.close_all(self._server._map)
         if self._thread is not None:
             self._thread.join(timeout=5.0)
