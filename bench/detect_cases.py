@@ -1,0 +1,178 @@
+"""The scenes of the detection benchmark (bench/bench_detect.py): which, rendered how, cached where.
+
+Sets (each case is one scene; ``classic`` cases are one view, the others a pair of views):
+
+- ``classic``: the scenes the detector was first tuned on, exactly as the earlier benchmark
+  rendered them (seeds 0..N-1, kinds cycling straight/arc/s_curve/nonplanar, one suggested view
+  rolled by a seeded angle and shifted a little; :func:`classic_pose`).
+- ``wide``: ``variety="wide"`` scenes (drivers/sim/sim_look.py), seeds taken from one part of the
+  split (:func:`drivers.sim.sim_look.seeds_in`, from 10000 up), seen by the product's two views
+  (across the seam, view 2 rolled to the image diagonal, as the dry run) at the look's distance
+  +-10 %, both views rolled by one seeded angle and shifted along the seam by up to a quarter of
+  its length (so that the seam leaves the image at one or both ends in many cases).
+- ``pen``: ``variety="pen"`` scenes (1-3 lines parallel to the joint), seeds from 50000 up, the
+  same views.
+
+Renders are cached as PNG (lossless; a JPEG look's artefacts are already in the image) with the
+truth in an .npz under bench/cache/detect/ (git-ignored), keyed by :data:`CACHE_TAG`, bumped when
+the simulator changes what it draws.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from controller.geometry.camera_model import default_camera
+from controller.geometry.poses import make_pose, rotation_about
+from drivers.sim.sim_look import seeds_in
+from drivers.sim.sim_render import render, suggest_view_poses
+from drivers.sim.sim_scene import DIFFICULTIES, KINDS, make_scene
+
+CACHE = Path(__file__).resolve().parent / "cache" / "detect"
+CACHE_TAG = "v1"
+#: First seed of each set (disjoint seed ranges, then split by sim_look.split_of).
+SEED_START = {"wide": 10000, "pen": 50000}
+VIEW2_ROLL_DEG = float(np.degrees(np.arctan2(1704.0, 2272.0)))  # as controller/cell/dry_run.py
+
+
+def case_list(kind_set: str, difficulty: str, split: str, n: int) -> list[tuple[str, str, str, int]]:
+    """``n`` cases (set, difficulty, split, seed) of one set, difficulty and part.
+
+    The pen set mixes the difficulties (easy, medium, hard in turn); ``difficulty`` is ignored.
+    """
+    if kind_set == "classic":
+        return [("classic", difficulty, "tuning", s) for s in range(n)]
+    seeds = seeds_in(split, n, start=SEED_START[kind_set])
+    if kind_set == "pen":
+        return [("pen", DIFFICULTIES[k % 3], split, s) for k, s in enumerate(seeds)]
+    return [(kind_set, difficulty, split, s) for s in seeds]
+
+
+#: Cases per group: classic views per difficulty, wide pairs per difficulty and part, pen pairs
+#: per part.
+FULL = {"classic": 52, "wide/heldout": 100, "wide/tuning": 50, "pen": 25}
+QUICK = {"classic": 8, "wide/heldout": 10, "wide/tuning": 10, "pen": 6}
+
+
+def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],
+         sets: list[str]) -> dict[str, list[tuple[str, str, str, int]]]:
+    """The benchmark's case groups, keyed "set/difficulty/split" (pen: "pen/mixed/split")."""
+    groups: dict[str, list[tuple[str, str, str, int]]] = {}
+    if "classic" in sets:
+        for d in difficulties:
+            groups[f"classic/{d}/tuning"] = case_list("classic", d, "tuning", sizes["classic"])
+    for split in splits:
+        if "wide" in sets:
+            for d in difficulties:
+                groups[f"wide/{d}/{split}"] = case_list("wide", d, split,
+                                                        sizes[f"wide/{split}"])
+        if "pen" in sets:
+            groups[f"pen/mixed/{split}"] = case_list("pen", "", split, sizes["pen"])
+    return groups
+
+
+def render_order(groups: dict[str, list[tuple[str, str, str, int]]]
+                 ) -> list[tuple[str, str, str, int]]:
+    """All cases, the groups interleaved (the first cases of every group come first)."""
+    out = []
+    longest = max((len(g) for g in groups.values()), default=0)
+    for i in range(longest):
+        out += [g[i] for g in groups.values() if i < len(g)]
+    return out
+
+
+def classic_pose(scene: Any, cam: Any, seed: int) -> np.ndarray:
+    """The earlier benchmark's seeded view: a suggested pose, rolled and shifted."""
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 4242]))
+    T = suggest_view_poses(scene, cam)[seed % 2].copy()
+    roll = rng.uniform(-np.pi, np.pi)
+    R = np.eye(4)
+    R[:3, :3] = rotation_about((0.0, 0.0, 1.0), roll)
+    T = T @ R
+    shift = rng.uniform(-15, 15, 2)
+    T[:3, 3] += T[:3, 0] * shift[0] + T[:3, 1] * shift[1]
+    return T
+
+
+def pair_poses(scene: Any, cam: Any, seed: int) -> list[np.ndarray]:
+    """The two views of a wide or pen case (module doc), camera poses T_base_cam (mm)."""
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 4243]))
+    standoff = scene.look.standoff_mm * float(rng.uniform(0.9, 1.1))
+    poses = suggest_view_poses(scene, cam, standoff_mm=standoff,
+                               baseline_mm=200.0 * standoff / 350.0)
+    poses[1] = poses[1] @ make_pose(rotation_about([0, 0, 1], np.radians(VIEW2_ROLL_DEG)))
+    roll = make_pose(rotation_about([0, 0, 1], float(rng.uniform(-np.pi, np.pi))))
+    P = scene.seam_points_mm
+    chord = (P[-1] - P[0]) / np.linalg.norm(P[-1] - P[0])
+    shift = chord * float(rng.uniform(-0.25, 0.25)) * scene.length_mm
+    out = []
+    for T in poses:
+        T = T @ roll
+        T[:3, 3] += shift
+        out.append(T)
+    return out
+
+
+def make_case_scene(case: tuple[str, str, str, int]) -> Any:
+    """The scene of a case."""
+    kind_set, difficulty, _, seed = case
+    kind = KINDS[seed % len(KINDS)]
+    variety = {"classic": "classic", "wide": "wide", "pen": "pen"}[kind_set]
+    return make_scene(kind, seed, difficulty, variety=variety)
+
+
+def _stem(case: tuple[str, str, str, int]) -> Path:
+    kind_set, difficulty, split, seed = case
+    return CACHE / CACHE_TAG / kind_set / difficulty / f"{split}-{seed:05d}"
+
+
+def render_case(case: tuple[str, str, str, int]) -> str:
+    """Render (and cache) the views of a case; returns "cached" or "rendered"."""
+    stem = _stem(case)
+    if stem.with_suffix(".npz").exists():
+        return "cached"
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    cam = default_camera()
+    scene = make_case_scene(case)
+    seed = case[3]
+    poses = [classic_pose(scene, cam, seed)] if case[0] == "classic" else \
+        pair_poses(scene, cam, seed)
+    truth: dict[str, Any] = {"n_views": len(poses), "gap_mm": scene.gap_mm, "kind": scene.kind,
+                             "family": scene.look.family if scene.look else "classic",
+                             "ragged_mm": scene.look.ragged_mm if scene.look else 0.0,
+                             "centre_mm": scene.centre_mm, "radius_mm": scene.region_radius_mm}
+    for i, T in enumerate(poses):
+        r = render(scene, cam, T, seed=seed + 7919 * i)
+        cv2.imwrite(str(stem) + f"-{i}.png", r.image)
+        truth.update({f"seam_px{i}": r.seam_px, f"seam_index{i}": r.seam_index, f"T{i}": T,
+                      f"end_kinds{i}": np.array(r.end_kinds), f"end_tol_px{i}": r.end_tol_px,
+                      f"gap_px{i}": r.gap_px,
+                      f"spans{i}": np.array(r.occluded_spans_px, float).reshape(-1, 2),
+                      f"n_pens{i}": len(r.pen_lines_px)})
+        for k, P in enumerate(r.pen_lines_px):
+            truth[f"pen{i}_{k}"] = P
+    truth["seam_points_mm"] = scene.seam_points_mm
+    np.savez(str(stem) + ".npz", **truth)
+    return "rendered"
+
+
+def load_case(case: tuple[str, str, str, int]) -> tuple[list[np.ndarray], dict[str, Any]]:
+    """(images, truth) of a rendered case; truth as saved by :func:`render_case`."""
+    stem = _stem(case)
+    z = dict(np.load(str(stem) + ".npz"))
+    imgs = [cv2.imread(str(stem) + f"-{i}.png", cv2.IMREAD_UNCHANGED)
+            for i in range(int(z["n_views"]))]
+    return imgs, z
+
+
+def view_truth(z: dict[str, Any], i: int) -> dict[str, Any]:
+    """The truth of view ``i`` of a case: seam_px, end kinds and tolerance, spans, pens, gap_px."""
+    return {"seam_px": z[f"seam_px{i}"], "end_kinds": [str(k) for k in z[f"end_kinds{i}"]],
+            "end_tol_px": float(z[f"end_tol_px{i}"]), "spans": z[f"spans{i}"],
+            "pens": [z[f"pen{i}_{k}"] for k in range(int(z[f"n_pens{i}"]))],
+            "gap_px": float(z[f"gap_px{i}"]), "gap_mm": float(z["gap_mm"]),
+            "ragged_mm": float(z["ragged_mm"]), "family": str(z["family"])}
