@@ -36,10 +36,12 @@ CACHE = Path(__file__).resolve().parent / "cache" / "detect"
 CACHE_TAG = "v1"
 #: First seed of each set (disjoint seed ranges, then split by sim_look.split_of).
 SEED_START = {"wide": 10000, "pen": 50000}
+#: A case: (set, difficulty, split, seed).
+Case = tuple[str, str, str, int]
 VIEW2_ROLL_DEG = float(np.degrees(np.arctan2(1704.0, 2272.0)))  # as controller/cell/dry_run.py
 
 
-def case_list(kind_set: str, difficulty: str, split: str, n: int) -> list[tuple[str, str, str, int]]:
+def case_list(kind_set: str, difficulty: str, split: str, n: int) -> list[Case]:
     """``n`` cases (set, difficulty, split, seed) of one set, difficulty and part.
 
     The pen set mixes the difficulties (easy, medium, hard in turn); ``difficulty`` is ignored.
@@ -59,9 +61,9 @@ QUICK = {"classic": 8, "wide/heldout": 10, "wide/tuning": 10, "pen": 6}
 
 
 def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],
-         sets: list[str]) -> dict[str, list[tuple[str, str, str, int]]]:
+         sets: list[str]) -> dict[str, list[Case]]:
     """The benchmark's case groups, keyed "set/difficulty/split" (pen: "pen/mixed/split")."""
-    groups: dict[str, list[tuple[str, str, str, int]]] = {}
+    groups: dict[str, list[Case]] = {}
     if "classic" in sets:
         for d in difficulties:
             groups[f"classic/{d}/tuning"] = case_list("classic", d, "tuning", sizes["classic"])
@@ -75,8 +77,8 @@ def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],
     return groups
 
 
-def render_order(groups: dict[str, list[tuple[str, str, str, int]]]
-                 ) -> list[tuple[str, str, str, int]]:
+def render_order(groups: dict[str, list[Case]]
+                 ) -> list[Case]:
     """All cases, the groups interleaved (the first cases of every group come first)."""
     out = []
     longest = max((len(g) for g in groups.values()), default=0)
@@ -117,7 +119,7 @@ def pair_poses(scene: Any, cam: Any, seed: int) -> list[np.ndarray]:
     return out
 
 
-def make_case_scene(case: tuple[str, str, str, int]) -> Any:
+def make_case_scene(case: Case) -> Any:
     """The scene of a case."""
     kind_set, difficulty, _, seed = case
     kind = KINDS[seed % len(KINDS)]
@@ -125,12 +127,12 @@ def make_case_scene(case: tuple[str, str, str, int]) -> Any:
     return make_scene(kind, seed, difficulty, variety=variety)
 
 
-def _stem(case: tuple[str, str, str, int]) -> Path:
+def _stem(case: Case) -> Path:
     kind_set, difficulty, split, seed = case
     return CACHE / CACHE_TAG / kind_set / difficulty / f"{split}-{seed:05d}"
 
 
-def render_case(case: tuple[str, str, str, int]) -> str:
+def render_case(case: Case) -> str:
     """Render (and cache) the views of a case; returns "cached" or "rendered"."""
     stem = _stem(case)
     if stem.with_suffix(".npz").exists():
@@ -160,7 +162,7 @@ def render_case(case: tuple[str, str, str, int]) -> str:
     return "rendered"
 
 
-def load_case(case: tuple[str, str, str, int]) -> tuple[list[np.ndarray], dict[str, Any]]:
+def load_case(case: Case) -> tuple[list[np.ndarray], dict[str, Any]]:
     """(images, truth) of a rendered case; truth as saved by :func:`render_case`."""
     stem = _stem(case)
     z = dict(np.load(str(stem) + ".npz"))
