@@ -54,7 +54,7 @@ def test_refused_requests_leave_the_daemon_serving_and_metrics_match_records(tmp
                            "Content-Type": "application/x-www-form-urlencoded"}, b"job=demo")
         assert code == 200 and json.loads(body)["ok"], body
         assert d.wait_cycles(1, 180)
-        d.robot.mock.fail_at_point = 5  # the controller reports an error mid-weld
+        d.robot.mock.arm.fail_at_point = 5  # the controller reports an error mid-weld
         code, _ = call(url + "/action/start", "POST", OPERATOR,
                        {"X-CSRF-Token": op, "Content-Type": "application/x-www-form-urlencoded"},
                        b"job=demo")
