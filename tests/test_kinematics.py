@@ -8,12 +8,19 @@ from controller.geometry.kinematics import (
     check_pose_consistency,
     controller_to_urdf,
     flange_pose,
+    ik_from,
     inverse_kinematics,
     irb2400,
     solve_ik,
     urdf_to_controller,
 )
-from controller.geometry.poses import make_pose, pose_error, pose_to_dict, translation_error_mm
+from controller.geometry.poses import (
+    make_pose,
+    pose_error,
+    pose_to_dict,
+    rotation_about,
+    translation_error_mm,
+)
 
 
 def dh(theta, d, a, alpha):
@@ -143,3 +150,29 @@ def test_pose_consistency_check(robot):
     tool = make_pose(np.eye(3), [0, 0, 3.0])  # a tool active on the controller: 3 mm off
     with pytest.raises(PoseMismatchError, match="tool0"):
         check_pose_consistency(robot, j, T @ tool)
+
+
+def test_ik_from_continues_the_seeds_branch(robot):
+    rng = np.random.default_rng(11)
+    for _ in range(50):
+        j = rng.uniform(robot.limits_deg[:, 0] * 0.8, robot.limits_deg[:, 1] * 0.8)
+        if abs(j[4]) < 5:  # keep off the wrist singularity
+            continue
+        T = flange_pose(robot, j + rng.uniform(-0.5, 0.5, 6))
+        got = ik_from(robot, T, j)
+        assert got is not None
+        assert pose_error(flange_pose(robot, got), T)[0] < 1e-6
+        assert np.allclose(got, solve_ik(robot, T, near_deg=j), atol=1e-6)
+
+
+def test_ik_from_fails_out_of_reach_and_outside_limits(robot):
+    j = np.array([0.0, 20.0, 10.0, 0.0, 40.0, 0.0])
+    far = make_pose(np.eye(3), [3000.0, 0.0, 500.0])
+    assert ik_from(robot, far, j) is None
+    # axis 1 just past its limit: the seed's branch leaves the limits, no other branch is tried
+    edge = np.array([179.5, 20.0, 10.0, 0.0, 40.0, 0.0])
+    T = flange_pose(robot, [179.9, 20.0, 10.0, 0.0, 40.0, 0.0])
+    T_past = make_pose(rotation_about([0, 0, 1], np.radians(1.0)) @ T[:3, :3],
+                       rotation_about([0, 0, 1], np.radians(1.0)) @ T[:3, 3])
+    assert ik_from(robot, T, edge) is not None
+    assert ik_from(robot, T_past, edge) is None

@@ -3,9 +3,15 @@ import pytest
 from stereo_scenes import seam_curve
 
 from controller.errors import ConfigError, ReachabilityError
-from controller.geometry.kinematics import flange_pose, irb2400
+from controller.geometry.kinematics import flange_pose, inverse_kinematics, irb2400
 from controller.geometry.poses import invert, pose_error
-from controller.path.weld_path import WeldParams, WorkspaceBox, plan_weld
+from controller.path.weld_path import (
+    WeldParams,
+    WorkspaceBox,
+    plan_weld,
+    seam_normals,
+    torch_poses,
+)
 from controller.stereo.seam_curve import resample_curve
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -87,3 +93,60 @@ def test_normal_along_the_seam_refused(robot):
     pts = resample_curve(seam_curve("straight"), count=5)
     with pytest.raises(ConfigError, match="normal"):
         plan_weld(robot, pts, np.array([0, 1.0, 0]))
+
+
+def plan_full_set(robot, path_targets, params, start_joints):
+    """The planner's reference choice: the full solution set at every target, the nearest kept
+    (what plan_weld did before it solved by continuity). Returns joints, or the first index that
+    has no solution or needs a flip between two weld targets."""
+    T_tcp_flange = invert(params.T_flange_tcp)
+    prev, out = start_joints, []
+    for i, t in enumerate(path_targets):
+        sols = inverse_kinematics(robot, t @ T_tcp_flange)
+        if not sols:
+            return out, i
+        best = min(sols, key=lambda j: float(np.max(np.abs(j - prev))))
+        if 1 < i < len(path_targets) - 1 and np.max(np.abs(best - prev)) > \
+                params.max_joint_step_deg:
+            return out, i
+        out.append(best)
+        prev = best
+    return out, None
+
+
+def test_continuity_picks_the_full_sets_nearest_solution(robot, arc_path):
+    pts, path = arc_path
+    ref, bad = plan_full_set(robot, [t.T_base_tcp for t in path.targets], path.params, np.zeros(6))
+    assert bad is None
+    assert np.allclose([t.joints_deg for t in path.targets], ref, atol=1e-6)
+
+
+def test_seam_running_out_of_reach_is_refused_where_the_full_set_refuses(robot):
+    # starts in reach, runs radially out of it: continuity must not accept a single point more
+    x = np.linspace(1100.0, 1900.0, 81)
+    pts = np.c_[x, np.zeros_like(x), np.full_like(x, 300.0)]
+    params = WeldParams()
+    weld = torch_poses(pts, seam_normals(pts, UP), params)
+    approach = weld[0].copy()
+    approach[:3, 3] -= params.approach_mm * weld[0][:3, 2]
+    _, first_bad = plan_full_set(robot, [approach, *weld], params, np.zeros(6))
+    assert first_bad is not None and first_bad > 5
+    with pytest.raises(ReachabilityError, match="cannot be reached") as info:
+        plan_weld(robot, pts, UP, workspace=WorkspaceBox(max_mm=(5000, 900, 1500)))
+    assert info.value.details["index"] == first_bad
+
+
+def test_seam_around_the_back_needs_a_flip_and_is_refused(robot):
+    # an arc around the base through axis 1's +-180 deg limit: continuity leaves the limits there,
+    # the full set's nearest solution is a whole turn of axis 1 away: refused as before
+    a = np.radians(np.linspace(160.0, 200.0, 60))
+    pts = np.c_[900.0 * np.cos(a), 900.0 * np.sin(a), np.full_like(a, 300.0)]
+    box = WorkspaceBox(min_mm=(-1600, -900, -100), max_mm=(1600, 900, 1500))
+    with pytest.raises(ReachabilityError, match="flip") as info:
+        plan_weld(robot, pts, UP, workspace=box)
+    params = WeldParams()
+    weld = torch_poses(pts, seam_normals(pts, UP), params)
+    approach = weld[0].copy()
+    approach[:3, 3] -= params.approach_mm * weld[0][:3, 2]
+    _, first_bad = plan_full_set(robot, [approach, *weld], params, np.zeros(6))
+    assert info.value.details["index"] == first_bad

@@ -27,6 +27,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+import threading
 from dataclasses import dataclass
 from importlib import resources
 
@@ -202,11 +203,25 @@ def _wrap_pi(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
+_DATA = threading.local()
+
+
+def _data(robot: RobotModel) -> pin.Data:
+    """Pinocchio work data for ``robot``, one per thread (the mock's thread solves IK too)."""
+    cache = getattr(_DATA, "by_model", None)
+    if cache is None:
+        cache = _DATA.by_model = {}
+    d = cache.get(id(robot.model))
+    if d is None:
+        d = cache[id(robot.model)] = robot.model.createData()
+    return d
+
+
 def _refine_dls(robot: RobotModel, q0: F64, target: pin.SE3, iterations: int = 50,
                 damping: float = 1e-6, tol: float = 1e-12) -> tuple[F64, float]:
     """Damped least squares on the tool0 frame error (log6, local frame); returns (q, error)."""
     model = robot.model
-    data = model.createData()
+    data = _data(robot)
     q = q0.copy()
     err = math.inf
     for _ in range(iterations):
@@ -253,6 +268,41 @@ def inverse_kinematics(robot: RobotModel, T_base_flange: ArrayLike, *,
                 found.append(cand)
     found.sort(key=lambda j: float(np.linalg.norm(j)))
     return found
+
+
+def ik_from(robot: RobotModel, T_base_flange: ArrayLike, seed_deg: ArrayLike) -> F64 | None:
+    """The IK solution (controller deg) reached from ``seed_deg`` by damped least squares.
+
+    For a pose near the one ``seed_deg`` reaches (the next point of a path), this is the solution
+    that continues the seed's branch, in a few iterations instead of a full solution set. None when
+    it does not converge to ``T_base_flange`` (flange in the base frame, mm) or lands outside the
+    joint limits: then only :func:`inverse_kinematics` can say whether the pose is reachable.
+    The pose is not validated (a path planner's inner loop): pass a proper rigid transform.
+    """
+    T = np.asarray(T_base_flange, dtype=np.float64)
+    if T.shape != (4, 4):
+        raise InputError(f"T_base_flange must be a 4x4 pose, got shape {T.shape}")
+    seed = _check_joint_vector(seed_deg, "seed_deg")
+    model, data, frame = robot.model, _data(robot), robot.tool0_frame
+    target = pose_to_se3(T)
+    q = controller_to_urdf(seed)
+    # Newton steps on the log6 error (a nearby pose: no damping needed; a singular Jacobian
+    # or no convergence is a failure, and the caller solves the full set). The bound is that of
+    # inverse_kinematics (log6 error 1e-9: ~1e-6 mm / 1e-9 rad).
+    for _ in range(12):
+        pin.framesForwardKinematics(model, data, q)
+        dM = data.oMf[frame].actInv(target)
+        e = pin.log6(dM).vector
+        if math.sqrt(float(e @ e)) < 1e-9:
+            j = urdf_to_controller(q)
+            lo, hi = robot.limits_deg[:, 0], robot.limits_deg[:, 1]
+            return j if bool(((j >= lo - 1e-9) & (j <= hi + 1e-9)).all()) else None
+        Jt = pin.Jlog6(dM) @ pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL)
+        try:
+            q = q + np.linalg.solve(Jt, e)
+        except np.linalg.LinAlgError:
+            return None
+    return None
 
 
 def solve_ik(robot: RobotModel, T_base_flange: ArrayLike, near_deg: ArrayLike | None = None,

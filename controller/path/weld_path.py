@@ -21,10 +21,15 @@ from numpy.typing import NDArray
 from scipy.signal import savgol_filter
 
 from controller.errors import ConfigError, ReachabilityError
-from controller.geometry.kinematics import RobotModel, inverse_kinematics
+from controller.geometry.kinematics import RobotModel, ik_from, inverse_kinematics
 from controller.geometry.poses import invert, make_pose, pose_to_dict, rotation_about
 
 F64 = NDArray[np.float64]
+
+
+#: Largest axis step (deg) between two consecutive targets that the continuity solution may take
+#: before the full solution set is solved instead (the nearest solution of the set is then used).
+CONTINUITY_STEP_DEG = 10.0
 
 
 def default_torch() -> F64:
@@ -149,17 +154,17 @@ def seam_normals(points: F64, nominal_normal: F64) -> F64:
 def torch_poses(points: F64, normals: F64, params: WeldParams) -> list[F64]:
     """``T_base_tcp`` at each seam point with the torch angles and tool offset applied."""
     t = tangents(points)
+    z = -np.asarray(normals, dtype=np.float64)
+    y = np.cross(z, t)
+    y /= np.linalg.norm(y, axis=1, keepdims=True)
+    x = np.cross(y, z)
+    R_seam = np.stack([x, y, z], axis=2)  # columns x, y, z
+    tilt = (rotation_about([0, 1, 0], np.radians(params.travel_angle_deg))
+            @ rotation_about([1, 0, 0], np.radians(params.work_angle_deg)))
     out = []
-    for p, x, n in zip(points, t, normals, strict=True):
-        z = -n
-        y = np.cross(z, x)
-        y /= np.linalg.norm(y)
-        x = np.cross(y, z)
-        R_seam = np.column_stack([x, y, z])
-        R = (R_seam @ rotation_about([0, 1, 0], np.radians(params.travel_angle_deg))
-             @ rotation_about([1, 0, 0], np.radians(params.work_angle_deg)))
-        tip = p - params.tool_offset_mm * R[:, 2]
-        out.append(make_pose(R, tip))
+    for p, Rs in zip(points, R_seam, strict=True):
+        R = Rs @ tilt
+        out.append(make_pose(R, p - params.tool_offset_mm * R[:, 2]))
     return out
 
 
@@ -169,7 +174,10 @@ def plan_weld(robot: RobotModel, seam_points_mm: F64, nominal_normal: F64,
     """Plan the weld over resampled seam points (base frame, mm, ordered, no tool offset).
 
     Every target is checked against the workspace box and by inverse kinematics against the joint
-    limits; the IK solution nearest the previous target is kept, and a jump of more than
+    limits; the IK solution nearest the previous target is kept (found by continuity from the
+    previous target's joints, the full solution set only for the first target or when continuity
+    fails: not converged, outside the limits, or an axis step over
+    :data:`CONTINUITY_STEP_DEG`), and a jump of more than
     ``params.max_joint_step_deg`` between consecutive weld targets (a wrist flip mid-seam) is
     refused. Raises :class:`ReachabilityError` naming the first bad target.
     """
@@ -193,14 +201,27 @@ def plan_weld(robot: RobotModel, seam_points_mm: F64, nominal_normal: F64,
         if not workspace.contains(p):
             raise ReachabilityError(f"{where} is outside the workspace box {workspace.min_mm} .. "
                                     f"{workspace.max_mm} mm", index=i, position_mm=p.tolist())
-        sols = inverse_kinematics(robot, T @ T_tcp_flange)
-        if not sols:
-            raise ReachabilityError(f"{where} cannot be reached by the {robot.name} within its "
-                                    f"joint limits with this torch orientation; change the work "
-                                    f"or travel angle or move the part", index=i,
-                                    position_mm=p.tolist())
+        T_flange = T @ T_tcp_flange
         ref = prev if prev is not None else np.zeros(6)
-        best = min(sols, key=lambda j: float(np.max(np.abs(j - ref))))
+        # Continuity: from the previous target's joints, Newton steps land on the same branch in
+        # a few iterations. The full solution set is solved for the first target, and
+        # whenever that fails (no convergence, outside the limits, or a jump that is not a small
+        # step), so the choice and the refusals are those of the full set.
+        best = None
+        if prev is not None and targets:
+            # along the seam, seeded where the last step leads (one Newton step fewer)
+            seed = prev
+            if kind == "weld" and len(targets) >= 2 and targets[-2].kind == "weld":
+                seed = 2.0 * prev - targets[-2].joints_deg
+            best = ik_from(robot, T_flange, seed)
+        if best is None or float(np.max(np.abs(best - ref))) > CONTINUITY_STEP_DEG:
+            sols = inverse_kinematics(robot, T_flange)
+            if not sols:
+                raise ReachabilityError(f"{where} cannot be reached by the {robot.name} within "
+                                        f"its joint limits with this torch orientation; change "
+                                        f"the work or travel angle or move the part", index=i,
+                                        position_mm=p.tolist())
+            best = min(sols, key=lambda j: float(np.max(np.abs(j - ref))))
         step = float(np.max(np.abs(best - ref)))
         if prev is not None and kind == "weld" and targets and targets[-1].kind == "weld" \
                 and step > params.max_joint_step_deg:
