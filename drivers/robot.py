@@ -46,7 +46,8 @@ __all__ = ["DEFAULT_TIMEOUT_S", "ROBOT_SCHEMES", "Event", "MotionHandle", "Motio
 # ---- the registry ---------------------------------------------------------------------------
 
 #: Robot URL schemes handled by seamguide itself (module:function, imported lazily).
-ROBOT_SCHEMES: dict[str, str] = {"mock": "drivers.mock.mock_controller:open_mock_robot"}
+ROBOT_SCHEMES: dict[str, str] = {"mock": "drivers.mock.mock_controller:open_mock_robot",
+                                 "rapid": "drivers.rapid_vm.vm_controller:open_rapid_robot"}
 
 
 def serial_schemes() -> list[str]:

@@ -1,6 +1,7 @@
-"""One test body for the Robot interface, run against every backend: the in-process ``mock://``
-and a mock controller reached by its pty path through ``serial_for_url`` (as a real controller
-would be). A new backend only has to pass these."""
+"""One test body for the Robot interface, run against every backend: the in-process ``mock://``,
+a mock controller reached by its pty path through ``serial_for_url`` (as a real controller
+would be), and ``rapid://``: the RAPID server module itself, run by the RAPID interpreter. A new
+backend only has to pass these."""
 
 from __future__ import annotations
 
@@ -15,10 +16,13 @@ from drivers.robot import Robot, SafetyLimits, open_robot
 TOOL = make_pose(t_mm=[0.0, 0.0, 250.0])
 
 
-@pytest.fixture(params=["mock-url", "pty-path"])
+@pytest.fixture(params=["mock-url", "pty-path", "rapid-url"])
 def robot(request):
     if request.param == "mock-url":
         r = open_robot("mock://?seed=5")
+        mock = r.mock
+    elif request.param == "rapid-url":
+        r = open_robot("rapid://?seed=5")
         mock = r.mock
     else:
         mock = MockController(seed=5)
