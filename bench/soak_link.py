@@ -1,6 +1,7 @@
 """Soak test of the robot link: many requests over a lossy line, nothing lost, nothing done twice.
 
-The client talks to an in-process mock controller on a real pseudo-terminal; the mock corrupts a
+The client talks to an in-process mock controller (or, ``--backend rapid``, the RAPID server
+module itself run by the RAPID interpreter) on a real pseudo-terminal; the line corrupts a
 fraction of the bytes and drops a fraction of the lines in both directions. Every 10th call is a
 joint move (two requests, SV + MJ) that is waited for; the rest are reads (joints, pose, status,
 identify). At the end the mock's log of executed motions is compared with what the client was told:
@@ -14,6 +15,7 @@ identify). At the end the mock's log of executed motions is compared with what t
     .venv/bin/python bench/soak_link.py                     # 10,000 requests, 2 % bytes, 1 % lines
     .venv/bin/python bench/soak_link.py --requests 2000 --corrupt 0.05
     .venv/bin/python bench/soak_link.py --weld-cycle        # link time of one weld cycle
+    .venv/bin/python bench/soak_link.py --backend rapid     # against SGSERVER.mod itself
 
 Prints one JSON object. The link figures (bytes, retransmissions) come from the client and mock.
 """
@@ -41,8 +43,11 @@ TARGETS = ([10.0, 20.0, 10.0, 0.0, 30.0, 0.0], [-10.0, 5.0, 0.0, 20.0, 40.0, 10.
 def run_soak(requests: int = 10_000, corrupt: float = 0.02, drop: float = 0.01,
              dup: float = 0.0, seed: int = 7, motion_every: int = 10,
              ack_timeout_s: float = 0.05, retries: int = 40,
-             status_poll_s: float = 0.1, disconnect: float = 0.0) -> dict[str, Any]:
-    url = (f"mock://?seed={seed}&corrupt={corrupt}&drop={drop}&dup={dup}"
+             status_poll_s: float = 0.1, disconnect: float = 0.0,
+             backend: str = "mock") -> dict[str, Any]:
+    """``backend``: ``mock`` (the Python mock controller) or ``rapid`` (SGSERVER.mod itself in
+    the RAPID interpreter), on the same fault-injected line."""
+    url = (f"{backend}://?seed={seed}&corrupt={corrupt}&drop={drop}&dup={dup}"
            f"&disconnect={disconnect}")
     failures: collections.Counter[str] = collections.Counter()
     accepted: list[int] = []
@@ -176,6 +181,9 @@ def main() -> int:
     ap.add_argument("--retries", type=int, default=40)
     ap.add_argument("--disconnect", type=float, default=0.0,
                     help="probability of a link drop after each received line")
+    ap.add_argument("--backend", choices=("mock", "rapid"), default="mock",
+                    help="the controller: the Python mock, or SGSERVER.mod in the RAPID "
+                    "interpreter (rapid://)")
     ap.add_argument("--weld-cycle", action="store_true",
                     help="instead of the soak: the link time of one weld cycle (2 views, "
                     "100-point path) computed from the bytes and measured at 9600 and 19200 baud")
@@ -186,7 +194,7 @@ def main() -> int:
         print(json.dumps(out, indent=2))
         return 0
     result = run_soak(args.requests, args.corrupt, args.drop, args.dup, args.seed,
-                      retries=args.retries, disconnect=args.disconnect)
+                      retries=args.retries, disconnect=args.disconnect, backend=args.backend)
     print(json.dumps(result, indent=2))
     ok = result["lost"] == result["executed_twice"] == result["unreported"] == 0
     return 0 if ok and result["wrong_position"] == 0 else 1

@@ -1,7 +1,9 @@
-"""The RAPID functions on strings and numbers the server uses, as the RAPID reference describes
-them (Functions: StrLen, StrPart, StrFind, StrMatch, StrMemb, StrToVal, NumToStr, Abs, Sqrt,
-Distance). Positions are 1-based; a search that finds nothing returns the length plus one. A
-position or length outside the string stops the program (as a run-time error would).
+"""The RAPID string and number functions the server uses.
+
+As the RAPID reference describes them (Functions: StrLen, StrPart, StrFind, StrMatch,
+StrMemb, StrToVal, NumToStr, Abs, Sqrt, Distance). Positions are 1-based; a search that finds
+nothing returns the length plus one. A position or length outside the string stops the program
+(as a run-time error would).
 """
 
 from __future__ import annotations
@@ -41,13 +43,13 @@ def str_part(where: str, a: list[Any], o: dict[str, Any]) -> str:
     """StrPart(Str, ChPos, Len): ``Len`` characters from ``ChPos``."""
     s = _str(where, a[0], "Str")
     p, n = a[1], a[2]
-    if not (n == int(n) and n >= 0 and p == int(p) and 1 <= p and p + n - 1 <= len(s)):
+    if not (n == int(n) and n >= 0 and p == int(p) and p >= 1 and p + n - 1 <= len(s)):
         raise RapidStop(f"{where}: StrPart({s!r}, {p}, {n}) outside the string")
     return s[int(p) - 1:int(p) - 1 + int(n)]
 
 
 def str_find(where: str, a: list[Any], o: dict[str, Any]) -> float:
-    """StrFind(Str, ChPos, Set [\\NotInSet]): first character (not) in ``Set`` from ``ChPos``."""
+    r"""StrFind(Str, ChPos, Set [\NotInSet]): first character (not) in ``Set`` from ``ChPos``."""
     s, sset = _str(where, a[0], "Str"), _str(where, a[2], "Set")
     p = _pos(where, s, a[1], "StrFind")
     notin = bool(o.get("notinset"))

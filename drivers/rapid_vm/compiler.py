@@ -1,4 +1,6 @@
-"""Turns the parse tree of routines into Python closures: an expression becomes ``fn(frame) ->
+"""The parse tree of routines turned into Python closures.
+
+An expression becomes ``fn(frame) ->
 value``, a statement ``fn(frame) -> None``. Every name is resolved here, when the module is
 linked, as RAPID does at load time: an unknown name is a :class:`RapidLoadError` naming file and
 line, so a module that references an instruction, signal or error number the controller lacks
@@ -8,12 +10,12 @@ rounded to single precision; a string result over 80 characters stops the progra
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from drivers.rapid_vm.errors import RapidError, RapidLoadError, RapidStop
 from drivers.rapid_vm.frames import (
+    MAX_RETRIES,
     Frame,
     Param,
     ProgramExit,
@@ -26,80 +28,14 @@ from drivers.rapid_vm.frames import (
     invoke,
     run_block,
 )
-from drivers.rapid_vm.values import RECORDS, check_string, component_type, convert, copy, f32
+from drivers.rapid_vm.operators import BINOPS, as_bool, as_num
+from drivers.rapid_vm.values import RECORDS, component_type, convert, copy, f32
 
 if TYPE_CHECKING:
     from drivers.rapid_vm.program import Program
 
 Expr = Callable[[Frame], Any]
 Node = tuple[Any, ...]
-ERR_DIVZERO = 1036.0
-
-
-def _num(x: Any) -> float:
-    if type(x) is float:
-        return x  # type: ignore[no-any-return]
-    if isinstance(x, bool) or not isinstance(x, float | int):
-        raise RapidStop(f"type error: {x!r} is not a num")
-    return float(x)
-
-
-def _int(x: Any, op: str) -> int:
-    v = _num(x)
-    if v != math.floor(v):
-        raise RapidStop(f"type error: {op} needs integer operands, got {v}")
-    return int(v)
-
-
-def _add(a: Any, b: Any) -> Any:
-    if isinstance(a, str) and isinstance(b, str):
-        return check_string(a + b)
-    return f32(_num(a) + _num(b))
-
-
-def _div(a: Any, b: Any) -> float:
-    if _num(b) == 0:
-        raise RapidError(int(ERR_DIVZERO), "division by zero")
-    return f32(_num(a) / _num(b))
-
-
-def _idiv(a: Any, b: Any) -> float:
-    x, y = _int(a, "DIV"), _int(b, "DIV")
-    if y == 0:
-        raise RapidError(int(ERR_DIVZERO), "division by zero")
-    return float(int(x / y))
-
-
-def _imod(a: Any, b: Any) -> float:
-    x, y = _int(a, "MOD"), _int(b, "MOD")
-    if y == 0:
-        raise RapidError(int(ERR_DIVZERO), "division by zero")
-    return float(x - y * int(x / y))
-
-
-def _bool(x: Any) -> bool:
-    if not isinstance(x, bool):
-        raise RapidStop(f"type error: {x!r} is not a bool")
-    return x
-
-
-def _order(a: Any, b: Any) -> tuple[float, float]:
-    return _num(a), _num(b)
-
-
-_BINOPS: dict[str, Callable[[Any, Any], Any]] = {
-    "+": _add, "-": lambda a, b: f32(_num(a) - _num(b)), "*": lambda a, b: f32(_num(a) * _num(b)),
-    "/": _div, "DIV": _idiv, "MOD": _imod,
-    "=": lambda a, b: a == b, "<>": lambda a, b: a != b,
-    "<": lambda a, b: _order(a, b)[0] < _order(a, b)[1],
-    "<=": lambda a, b: _order(a, b)[0] <= _order(a, b)[1],
-    ">": lambda a, b: _order(a, b)[0] > _order(a, b)[1],
-    ">=": lambda a, b: _order(a, b)[0] >= _order(a, b)[1],
-    "AND": lambda a, b: _bool(a) & _bool(b), "OR": lambda a, b: _bool(a) | _bool(b),
-    "XOR": lambda a, b: _bool(a) ^ _bool(b),
-}
-
-
 class Ref:
     """An INOUT argument of a built-in: read with :meth:`get`, written with :meth:`set`."""
 
@@ -125,25 +61,25 @@ class Compiler:
         self.prog, self.routine, self.locals, self.filename = prog, routine, locals_, filename
         self.line = routine.line
 
-    def err(self, msg: str) -> RapidLoadError:
+    def _err(self, msg: str) -> RapidLoadError:
         return RapidLoadError(f"{self.filename}:{self.line}: {msg}")
 
     # ---- names and targets -----------------------------------------------------------------
 
-    def var_type(self, name: str) -> tuple[str, int, str]:
+    def _var_type(self, name: str) -> tuple[str, int, str]:
         """(type, dims, where) of a variable: ``local``, ``global`` or ``const``."""
         if name in self.locals:
             return (*self.locals[name], "local")
         g = self.prog.global_types.get(name)
         if g is not None:
             return g
-        raise self.err(f"reference error: unknown data {name!r}")
+        raise self._err(f"reference error: unknown data {name!r}")
 
-    def target(self, node: Node) -> tuple[Expr, Callable[[Frame, Any], None], str]:
+    def _target(self, node: Node) -> tuple[Expr, Callable[[Frame, Any], None], str]:
         """A variable, element or component: (getter, setter, its type)."""
         if node[0] == "var":
             name = node[1]
-            t, dims, where = self.var_type(name)
+            t, dims, where = self._var_type(name)
             typ = t if not dims else f"{t}{{}}"
             if where == "local":
                 return (lambda fr: fr.v[name]), (lambda fr, x: fr.v.__setitem__(name, x)), typ
@@ -154,9 +90,9 @@ class Compiler:
                 return (lambda fr: g[name]), no_set, typ
             return (lambda fr: g[name]), (lambda fr, x: g.__setitem__(name, x)), typ
         if node[0] == "idx":
-            get_base, _, btype = self.target(node[1])
+            get_base, _, btype = self._target(node[1])
             if not btype.endswith("{}"):
-                raise self.err(f"{btype} is not an array")
+                raise self._err(f"{btype} is not an array")
             (ie,) = [self.expr(i) for i in node[2]]
 
             def index(fr: Frame) -> tuple[list[Any], int]:
@@ -175,16 +111,17 @@ class Compiler:
 
             return get_el, set_el, btype[:-2]
         if node[0] == "comp":
-            get_base, _, btype = self.target(node[1])
+            get_base, _, btype = self._target(node[1])
             name = node[2]
             ctype = component_type(btype, name, f"{self.filename}:{self.line}")
             return ((lambda fr: get_base(fr).f[name]),
                     (lambda fr, x: get_base(fr).f.__setitem__(name, x)), ctype)
-        raise self.err("not a variable")
+        raise self._err("not a variable")
 
     # ---- expressions -----------------------------------------------------------------------
 
     def expr(self, node: Node) -> Expr:
+        """The closure of an expression: ``fn(frame) -> value``."""
         tag = node[0]
         if tag == "num":
             v = f32(node[1])
@@ -198,16 +135,16 @@ class Compiler:
         if tag == "un":
             e = self.expr(node[2])
             if node[1] == "NOT":
-                return lambda fr: not _bool(e(fr))
+                return lambda fr: not as_bool(e(fr))
             if node[1] == "-":
-                return lambda fr: f32(-_num(e(fr)))
-            return lambda fr: _num(e(fr))
+                return lambda fr: f32(-as_num(e(fr)))
+            return lambda fr: as_num(e(fr))
         if tag == "bin":
-            op, a, b = _BINOPS[node[1]], self.expr(node[2]), self.expr(node[3])
+            op, a, b = BINOPS[node[1]], self.expr(node[2]), self.expr(node[3])
             return lambda fr: op(a(fr), b(fr))
         if tag == "call":
             self.line = node[3]
-            return self.call(node[1], node[2], want_value=True)
+            return self._call(node[1], node[2], want_value=True)
         if tag == "var":
             name = node[1]
             if name == "errno":
@@ -215,24 +152,24 @@ class Compiler:
             if name in self.prog.constants and name not in self.locals:
                 c = self.prog.constants[name]
                 return lambda fr: c
-        return self.target(node)[0]
+        return self._target(node)[0]
 
     # ---- calls -----------------------------------------------------------------------------
 
-    def call(self, name: str, args: list[Node], want_value: bool) -> Expr:
+    def _call(self, name: str, args: list[Node], want_value: bool) -> Expr:
         """A call of a user routine or a built-in; returns a closure giving its value."""
         r = self.prog.routines.get(name)
         if r is not None:
             if (r.kind == "FUNC") != want_value or r.kind == "TRAP":
-                raise self.err(f"{name} is a {r.kind}, not a {'FUNC' if want_value else 'PROC'}")
-            return self.user_call(r, args)
+                raise self._err(f"{name} is a {r.kind}, not a {'FUNC' if want_value else 'PROC'}")
+            return self._user_call(r, args)
         b = self.prog.builtins.get(name)
         if b is None:
-            raise self.err(f"reference error: unknown {'function' if want_value else 'routine'} "
+            raise self._err(f"reference error: unknown {'function' if want_value else 'routine'} "
                            f"{name!r}")
         fn, outs, is_func = b
         if is_func != want_value:
-            raise self.err(f"{name} is {'a function' if is_func else 'an instruction'}")
+            raise self._err(f"{name} is {'a function' if is_func else 'an instruction'}")
         pos: list[Callable[[Frame], Any]] = []
         opts: list[tuple[str, Callable[[Frame], Any]]] = []
         for aname, e, optional in args:
@@ -240,7 +177,7 @@ class Compiler:
                 f = self.expr(e) if e is not None else (lambda fr: True)
                 opts.append((aname, f))
             elif len(pos) in outs:
-                getter, setter, _ = self.target(e)
+                getter, setter, _ = self._target(e)
                 pos.append(lambda fr, g=getter, s=setter: Ref(fr, g, s))  # type: ignore[misc]
             else:
                 pos.append(self.expr(e))
@@ -250,25 +187,25 @@ class Compiler:
             return fn(where, [p(fr) for p in pos], {k: f(fr) for k, f in opts})
         return run
 
-    def user_call(self, r: Routine, args: list[Node]) -> Expr:
+    def _user_call(self, r: Routine, args: list[Node]) -> Expr:
         req = [p for p in r.params if not p.optional]
         given = [a for a in args if not a[2]]
         if len(given) != len(req):
-            raise self.err(f"{r.name} takes {len(req)} arguments, got {len(given)}")
+            raise self._err(f"{r.name} takes {len(req)} arguments, got {len(given)}")
         binds: list[tuple[Param, Expr, Callable[[Frame, Any], None] | None]] = []
         for p, (_, e, _) in zip(req, given, strict=True):
             if p.mode == "IN":
                 binds.append((p, self.expr(e), None))
             else:
-                getter, setter, _ = self.target(e)
+                getter, setter, _ = self._target(e)
                 binds.append((p, getter, setter))
         opt_names = {p.name: p for p in r.params if p.optional}
         for aname, e, optional in args:
             if optional:
-                p = opt_names.get(aname)
-                if p is None:
-                    raise self.err(f"{r.name} has no optional argument \\{aname}")
-                binds.append((p, self.expr(e) if e is not None else (lambda fr: True), None))
+                op = opt_names.get(aname)
+                if op is None:
+                    raise self._err(f"{r.name} has no optional argument \\{aname}")
+                binds.append((op, self.expr(e) if e is not None else (lambda fr: True), None))
         outs = [(p.name, s) for p, _, s in binds if s is not None]
         probe = self.prog.probes.get(r.name)
 
@@ -290,12 +227,14 @@ class Compiler:
     # ---- statements ------------------------------------------------------------------------
 
     def block(self, nodes: list[Node]) -> list[Stmt]:
-        return [self.stmt(n) for n in nodes]
+        """The closures of a statement list."""
+        return [self._stmt(n) for n in nodes]
 
-    def guard(self, inner: Stmt) -> Stmt:
+    def _guard(self, inner: Stmt) -> Stmt:
         prog = self.prog
 
         def run(fr: Frame) -> None:
+            tries = 0
             while True:
                 if prog.pending and not prog.in_trap:
                     prog.run_traps()
@@ -305,31 +244,34 @@ class Compiler:
                     inner(fr)
                     return
                 except RapidError as e:
+                    if tries >= MAX_RETRIES:
+                        raise Propagate(e) from None
                     if not fr.handle(e):
                         return
+                    tries += 1
         return run
 
-    def stmt(self, node: Node) -> Stmt:
+    def _stmt(self, node: Node) -> Stmt:
         tag = node[0]
         self.line = node[-1]
         inner: Stmt
         if tag == "assign":
-            getter, setter, t = self.target(node[1])
+            getter, setter, t = self._target(node[1])
             e = self.expr(node[2])
             if t.endswith("{}"):
-                raise self.err("whole-array assignment is not in this interpreter")
+                raise self._err("whole-array assignment is not in this interpreter")
             inner = lambda fr: setter(fr, convert(e(fr), t))  # noqa: E731
         elif tag == "pcall":
-            inner = self.call(node[1], node[2], want_value=False)
+            inner = self._call(node[1], node[2], want_value=False)
         elif tag == "late":
-            inner = self.late(node[1], node[2])
+            inner = self._late(node[1], node[2])
         elif tag == "if":
             arms = [(self.expr(c), self.block(b)) for c, b in node[1]]
             other = self.block(node[2])
 
             def inner(fr: Frame) -> None:
                 for cond, body in arms:
-                    if _bool(cond(fr)):
+                    if as_bool(cond(fr)):
                         run_block(body, fr)
                         return
                 run_block(other, fr)
@@ -337,38 +279,38 @@ class Compiler:
             cond, body = self.expr(node[1]), self.block(node[2])
 
             def inner(fr: Frame) -> None:
-                while _bool(cond(fr)):
+                while as_bool(cond(fr)):
                     run_block(body, fr)
         elif tag == "for":
-            inner = self.for_loop(node)
+            inner = self._for_loop(node)
         elif tag == "test":
-            inner = self.test(node)
+            inner = self._test(node)
         elif tag == "return":
             rt = self.routine.rtype
             if (node[1] is None) != (rt is None):
-                raise self.err("RETURN needs a value in a FUNC and none elsewhere")
+                raise self._err("RETURN needs a value in a FUNC and none elsewhere")
             e = self.expr(node[1]) if node[1] is not None else (lambda fr: None)
 
             def inner(fr: Frame) -> None:
                 raise ReturnSig(convert(e(fr), rt) if rt else None)
         elif tag == "raise":
-            inner = self.raise_(node[1])
+            inner = self._raise_(node[1])
         elif tag in ("retry", "trynext", "exit"):
             sig = {"retry": RetrySig, "trynext": TryNextSig, "exit": ProgramExit}[tag]
 
             def inner(fr: Frame) -> None:
                 raise sig()
         elif tag == "connect":
-            _, setter, _ = self.target(node[1])
+            _, setter, _ = self._target(node[1])
             trap = self.prog.routines.get(node[2])
             if trap is None or trap.kind != "TRAP":
-                raise self.err(f"reference error: {node[2]!r} is not a TRAP")
+                raise self._err(f"reference error: {node[2]!r} is not a TRAP")
             inner = lambda fr: setter(fr, self.prog.connect(trap))  # noqa: E731
         else:
-            raise self.err(f"statement {tag} is not in this interpreter")
-        return self.guard(inner)
+            raise self._err(f"statement {tag} is not in this interpreter")
+        return self._guard(inner)
 
-    def late(self, name_e: Node, args: list[Node]) -> Stmt:
+    def _late(self, name_e: Node, args: list[Node]) -> Stmt:
         e = self.expr(name_e)
         vals = [self.expr(a[1]) for a in args]
         prog = self.prog
@@ -385,7 +327,7 @@ class Compiler:
             invoke(r, new)
         return run
 
-    def raise_(self, e_node: Node | None) -> Stmt:
+    def _raise_(self, e_node: Node | None) -> Stmt:
         if e_node is None:
             def reraise(fr: Frame) -> None:
                 if not fr.in_handler or fr.err is None:
@@ -395,13 +337,13 @@ class Compiler:
         e = self.expr(e_node)
 
         def raise_new(fr: Frame) -> None:
-            err = RapidError(int(_num(e(fr))), "raised by the program")
+            err = RapidError(int(as_num(e(fr))), "raised by the program")
             if fr.in_handler:
                 raise Propagate(err)
             raise err
         return raise_new
 
-    def for_loop(self, node: Node) -> Stmt:
+    def _for_loop(self, node: Node) -> Stmt:
         _, var, ef, et, es, body_n, _ = node
         self.locals = {**self.locals, var: ("num", 0)}
         e_from, e_to = self.expr(ef), self.expr(et)
@@ -409,15 +351,15 @@ class Compiler:
         body = self.block(body_n)
 
         def run(fr: Frame) -> None:
-            i, to = _num(e_from(fr)), _num(e_to(fr))
-            step = _num(e_step(fr)) if e_step else (1.0 if i <= to else -1.0)
+            i, to = as_num(e_from(fr)), as_num(e_to(fr))
+            step = as_num(e_step(fr)) if e_step else (1.0 if i <= to else -1.0)
             while (i <= to) if step > 0 else (i >= to):
                 fr.v[var] = f32(i)
                 run_block(body, fr)
                 i = f32(i + step)
         return run
 
-    def test(self, node: Node) -> Stmt:
+    def _test(self, node: Node) -> Stmt:
         e = self.expr(node[1])
         cases = [([self.expr(v) for v in vals], self.block(b)) for vals, b in node[2]]
         default = self.block(node[3])

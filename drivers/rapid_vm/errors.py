@@ -1,5 +1,8 @@
-"""The interpreter's errors: a module that does not load, a recoverable RAPID run-time error
-(with its error number, for ERROR handlers), and a run-time error that stops the program."""
+"""The interpreter's errors.
+
+A module that does not load, a recoverable RAPID run-time error
+(with its error number, for ERROR handlers), and a run-time error that stops the program.
+"""
 
 from __future__ import annotations
 

@@ -1,5 +1,7 @@
-"""Routines, call frames and the control-flow signals of the interpreter (RETURN, RETRY, TRYNEXT,
-an error leaving a routine), with the ERROR handler semantics of the RAPID kernel:
+"""Routines, call frames and the control-flow signals of the interpreter.
+
+RETURN, RETRY, TRYNEXT and an error leaving a routine, with the ERROR handler semantics of
+the RAPID kernel:
 
 * a recoverable error in a statement runs the routine's ERROR handler at once, with ``ERRNO``;
   ``RETRY`` executes the statement again, ``TRYNEXT`` goes on with the next one, ``RETURN`` leaves
@@ -20,6 +22,9 @@ from typing import Any
 from drivers.rapid_vm.errors import RapidError, RapidStop
 
 Stmt = Callable[["Frame"], None]
+#: RETRY runs a failing statement again at most this many times; then the error goes on to the
+#: caller (the controller's limit, a system parameter, is also small).
+MAX_RETRIES = 4
 
 
 class ReturnSig(Exception):
@@ -52,7 +57,7 @@ class ProgramExit(Exception):
 
 @dataclass
 class Param:
-    """A formal parameter: mode IN/INOUT/VAR/PERS, type, name, optional (``\\name``)."""
+    r"""A formal parameter: mode IN/INOUT/VAR/PERS, type, name, optional (``\name``)."""
 
     mode: str
     type: str

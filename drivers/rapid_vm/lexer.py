@@ -1,8 +1,8 @@
-"""Tokens of a RAPID module: keywords (any case), names, numbers, strings, operators.
+r"""Tokens of a RAPID module: keywords (any case), names, numbers, strings, operators.
 
 The ``%%% ... %%%`` header of a module file is skipped with its line numbers kept; ``!`` starts
-a comment to the end of the line. A string literal is ``"..."`` with ``""`` for a quote, ``\\\\``
-for a backslash and ``\\hh`` (two hex digits) for any character, at most 80 characters long
+a comment to the end of the line. A string literal is ``"..."`` with ``""`` for a quote, ``\\``
+for a backslash and ``\hh`` (two hex digits) for any character, at most 80 characters long
 (RAPID kernel reference, *Lexical elements*).
 """
 
@@ -17,7 +17,7 @@ KEYWORDS = frozenset("""
 ALIAS AND BACKWARD CASE CONNECT CONST DEFAULT DIV DO ELSE ELSEIF ENDFOR ENDFUNC ENDIF ENDMODULE
 ENDPROC ENDRECORD ENDTEST ENDTRAP ENDWHILE ERROR EXIT FALSE FOR FROM FUNC GOTO IF INOUT LOCAL
 MOD MODULE NOT OR PERS PROC RAISE RECORD RETRY RETURN STEP TASK TEST THEN TO TRAP TRUE TRYNEXT
-UNDO VAR WHILE WITH XOR""".split())
+UNDO VAR WHILE WITH XOR""".split())  # noqa: SIM905
 
 MAX_STRING = 80
 

@@ -1,4 +1,6 @@
-"""The controller around a RAPID program: the serial channel, the I/O signals and interrupts, the
+"""The controller around a RAPID program, as built-ins of the program.
+
+The serial channel, the I/O signals and interrupts, the
 teach pendant, and the motion instructions on the simulated arm, as built-ins of the program.
 
 Two system profiles: ``s4`` has only what the S4 BaseWare RAPID reference documents for the
@@ -62,7 +64,7 @@ class Machine:
         self._isignal: dict[str, tuple[float, float]] = {}  # signal -> (value, intnum)
         self.interrupt: Callable[[float], None] = lambda k: None
         self.delete_interrupt: Callable[[float], None] = lambda k: None
-        #: Lines written with TPWrite.
+        #: Lines written with TPWrite (the teach pendant).
         self.tp_log: list[str] = []
         self.open_channels: set[str] = set()
         self.weld_move = 0  # the MoveL count inside a weld (RunMotion with mkind RW), 0 outside
@@ -234,7 +236,8 @@ class Machine:
         out: dict[str, Builtin] = dict(CORE_FUNCTIONS)
         out.update({
             "readbin": (self._read_bin, none, func), "writebin": (self._write_bin, none, proc),
-            "open": (self._open, frozenset({1}), proc), "close": (self._close, frozenset({0}), proc),
+            "open": (self._open, frozenset({1}), proc),
+            "close": (self._close, frozenset({0}), proc),
             "setdo": (self._set_do, none, proc), "isignaldi": (self._isignal_di, none, proc),
             "idelete": (self._idelete, none, proc), "tpwrite": (self._tpwrite, none, proc),
             "confl": (self._nothing, none, proc), "confj": (self._nothing, none, proc),

@@ -43,335 +43,336 @@ class Parser:
     # ---- token helpers ---------------------------------------------------------------------
 
     @property
-    def tok(self) -> Token:
+    def _tok(self) -> Token:
         return self.toks[self.i]
 
-    def fail(self, what: str) -> RapidLoadError:
-        t = self.tok
+    def _fail(self, what: str) -> RapidLoadError:
+        t = self._tok
         return RapidLoadError(f"{self.filename}:{t.line}: expected {what}, found {t.text!r}")
 
-    def at(self, kind: str, value: object = None) -> bool:
-        t = self.tok
+    def _at(self, kind: str, value: object = None) -> bool:
+        t = self._tok
         return t.kind == kind and (value is None or t.value == value)
 
-    def at_kw(self, *words: str) -> bool:
-        return self.tok.kind == "kw" and self.tok.value in words
+    def _at_kw(self, *words: str) -> bool:
+        return self._tok.kind == "kw" and self._tok.value in words
 
-    def accept(self, kind: str, value: object = None) -> Token | None:
-        if self.at(kind, value):
+    def _accept(self, kind: str, value: object = None) -> Token | None:
+        if self._at(kind, value):
             self.i += 1
             return self.toks[self.i - 1]
         return None
 
-    def expect(self, kind: str, value: object = None) -> Token:
-        t = self.accept(kind, value)
+    def _expect(self, kind: str, value: object = None) -> Token:
+        t = self._accept(kind, value)
         if t is None:
-            raise self.fail(repr(value) if value is not None else kind)
+            raise self._fail(repr(value) if value is not None else kind)
         return t
 
-    def name(self) -> str:
-        return str(self.expect("name").value)
+    def _name(self) -> str:
+        return str(self._expect("name").value)
 
     # ---- module and declarations -----------------------------------------------------------
 
     def module(self) -> Node:
         """``MODULE name [(attributes)] {declaration | routine} ENDMODULE``."""
-        self.expect("kw", "MODULE")
-        name = self.name()
-        if self.accept("op", "("):
-            while not self.accept("op", ")"):
+        self._expect("kw", "MODULE")
+        name = self._name()
+        if self._accept("op", "("):
+            while not self._accept("op", ")"):
                 self.i += 1
         decls: list[Node] = []
         routines: list[Node] = []
-        while not self.accept("kw", "ENDMODULE"):
-            self.accept("kw", "LOCAL") or self.accept("kw", "TASK")
-            if self.at_kw("VAR", "PERS", "CONST"):
-                decls.append(self.data_decl())
-            elif self.at_kw("PROC", "FUNC", "TRAP"):
-                routines.append(self.routine())
+        while not self._accept("kw", "ENDMODULE"):
+            self._accept("kw", "LOCAL") or self._accept("kw", "TASK")
+            if self._at_kw("VAR", "PERS", "CONST"):
+                decls.append(self._data_decl())
+            elif self._at_kw("PROC", "FUNC", "TRAP"):
+                routines.append(self._routine())
             else:
-                raise self.fail("a data declaration, PROC, FUNC, TRAP or ENDMODULE")
-        self.expect("end")
+                raise self._fail("a data declaration, PROC, FUNC, TRAP or ENDMODULE")
+        self._expect("end")
         return (name, decls, routines)
 
-    def data_decl(self) -> Node:
-        ln = self.tok.line
-        kind = str(self.expect("kw").value)
-        typ = self.name()
-        name = self.name()
+    def _data_decl(self) -> Node:
+        ln = self._tok.line
+        kind = str(self._expect("kw").value)
+        typ = self._name()
+        name = self._name()
         dims: list[Node] = []
-        if self.accept("op", "{"):
-            dims.append(self.expr())
-            while self.accept("op", ","):
-                dims.append(self.expr())
-            self.expect("op", "}")
-        init = self.expr() if self.accept("op", ":=") else None
-        self.expect("op", ";")
+        if self._accept("op", "{"):
+            dims.append(self._expr())
+            while self._accept("op", ","):
+                dims.append(self._expr())
+            self._expect("op", "}")
+        init = self._expr() if self._accept("op", ":=") else None
+        self._expect("op", ";")
         if kind == "CONST" and init is None:
             raise RapidLoadError(f"{self.filename}:{ln}: CONST {name} needs a value")
         return ("data", kind, typ, name, dims, init, ln)
 
-    def routine(self) -> Node:
-        ln = self.tok.line
-        kind = str(self.expect("kw").value)
-        rtype = self.name() if kind == "FUNC" else None
-        name = self.name()
+    def _routine(self) -> Node:
+        ln = self._tok.line
+        kind = str(self._expect("kw").value)
+        rtype = self._name() if kind == "FUNC" else None
+        name = self._name()
         params: list[Node] = []
         if kind != "TRAP":
-            self.expect("op", "(")
-            if not self.at("op", ")"):
-                params.append(self.param())
-                while self.accept("op", ","):
-                    params.append(self.param())
-            self.expect("op", ")")
+            self._expect("op", "(")
+            if not self._at("op", ")"):
+                params.append(self._param())
+                while self._accept("op", ","):
+                    params.append(self._param())
+            self._expect("op", ")")
         decls: list[Node] = []
-        while self.at_kw("VAR", "PERS", "CONST"):
-            decls.append(self.data_decl())
+        while self._at_kw("VAR", "PERS", "CONST"):
+            decls.append(self._data_decl())
         end = {"PROC": "ENDPROC", "FUNC": "ENDFUNC", "TRAP": "ENDTRAP"}[kind]
-        body = self.block(("ERROR", "UNDO", "BACKWARD", end))
-        handler = self.block(("UNDO", end)) if self.accept("kw", "ERROR") else None
-        if self.at_kw("UNDO", "BACKWARD"):
-            raise self.fail(f"{end} (UNDO and BACKWARD are not in this interpreter)")
-        self.expect("kw", end)
+        body = self._block(("ERROR", "UNDO", "BACKWARD", end))
+        handler = self._block(("UNDO", end)) if self._accept("kw", "ERROR") else None
+        if self._at_kw("UNDO", "BACKWARD"):
+            raise self._fail(f"{end} (UNDO and BACKWARD are not in this interpreter)")
+        self._expect("kw", end)
         return ("routine", kind, name, rtype, params, decls, body, handler, ln)
 
-    def param(self) -> Node:
-        optional = self.accept("op", "\\") is not None
+    def _param(self) -> Node:
+        optional = self._accept("op", "\\") is not None
         mode = "IN"
         for m in ("INOUT", "VAR", "PERS"):
-            if self.accept("kw", m):
+            if self._accept("kw", m):
                 mode = m
-        typ = self.name()
-        name = self.name()
+        typ = self._name()
+        name = self._name()
         dims = 0
-        if self.accept("op", "{"):
+        if self._accept("op", "{"):
             dims = 1
-            while not self.accept("op", "}"):
+            while not self._accept("op", "}"):
                 self.i += 1
         return (mode, typ, name, optional, dims)
 
     # ---- statements ------------------------------------------------------------------------
 
-    def block(self, ends: tuple[str, ...]) -> list[Node]:
+    def _block(self, ends: tuple[str, ...]) -> list[Node]:
         out: list[Node] = []
-        while not self.at_kw(*ends):
-            if self.at("end"):
-                raise self.fail(" or ".join(ends))
-            out.append(self.statement())
+        while not self._at_kw(*ends):
+            if self._at("end"):
+                raise self._fail(" or ".join(ends))
+            out.append(self._statement())
         return out
 
-    def statement(self) -> Node:
-        t = self.tok
+    def _statement(self) -> Node:
+        t = self._tok
         ln = t.line
         if t.kind == "kw":
             word = str(t.value)
             if word == "IF":
-                return self.if_stmt()
+                return self._if_stmt()
             if word in ("WHILE", "FOR", "TEST"):
-                return getattr(self, f"{word.lower()}_stmt")()
+                return getattr(self, f"_{word.lower()}_stmt")()
             if word in ("RETURN", "RAISE"):
                 self.i += 1
-                e = None if self.at("op", ";") else self.expr()
-                self.expect("op", ";")
+                e = None if self._at("op", ";") else self._expr()
+                self._expect("op", ";")
                 return (word.lower(), e, ln)
             if word in ("RETRY", "TRYNEXT", "EXIT"):
                 self.i += 1
-                self.expect("op", ";")
+                self._expect("op", ";")
                 return (word.lower(), ln)
             if word == "CONNECT":
                 self.i += 1
-                lhs = self.target()
-                self.expect("kw", "WITH")
-                trap = self.name()
-                self.expect("op", ";")
+                lhs = self._target()
+                self._expect("kw", "WITH")
+                trap = self._name()
+                self._expect("op", ";")
                 return ("connect", lhs, trap, ln)
-            raise self.fail("a statement")
-        if self.accept("op", "%"):
-            e = self.expr()
-            self.expect("op", "%")
-            args = self.args(";")
-            self.expect("op", ";")
+            raise self._fail("a statement")
+        if self._accept("op", "%"):
+            e = self._expr()
+            self._expect("op", "%")
+            args = self._args(";")
+            self._expect("op", ";")
             return ("late", e, args, ln)
         if t.kind != "name":
-            raise self.fail("a statement")
+            raise self._fail("a statement")
         nxt = self.toks[self.i + 1]
         if nxt.kind == "op" and nxt.value in (":=", "{", "."):
-            lhs = self.target()
-            self.expect("op", ":=")
-            e = self.expr()
-            self.expect("op", ";")
+            lhs = self._target()
+            self._expect("op", ":=")
+            e = self._expr()
+            self._expect("op", ";")
             return ("assign", lhs, e, ln)
-        name = self.name()
-        args = self.args(";")
-        self.expect("op", ";")
+        name = self._name()
+        args = self._args(";")
+        self._expect("op", ";")
         return ("pcall", name, args, ln)
 
-    def if_stmt(self) -> Node:
-        ln = self.expect("kw", "IF").line
-        cond = self.expr()
-        if not self.accept("kw", "THEN"):  # compact IF: one simple statement
-            st = self.statement()
+    def _if_stmt(self) -> Node:
+        ln = self._expect("kw", "IF").line
+        cond = self._expr()
+        if not self._accept("kw", "THEN"):  # compact IF: one simple statement
+            st = self._statement()
             if st[0] in ("if", "while", "for", "test"):
                 raise RapidLoadError(f"{self.filename}:{ln}: compact IF takes a simple statement")
             return ("if", [(cond, [st])], [], ln)
-        arms = [(cond, self.block(("ELSEIF", "ELSE", "ENDIF")))]
+        arms = [(cond, self._block(("ELSEIF", "ELSE", "ENDIF")))]
         other: list[Node] = []
         while True:
-            if self.accept("kw", "ELSEIF"):
-                c = self.expr()
-                self.expect("kw", "THEN")
-                arms.append((c, self.block(("ELSEIF", "ELSE", "ENDIF"))))
-            elif self.accept("kw", "ELSE"):
-                other = self.block(("ENDIF",))
+            if self._accept("kw", "ELSEIF"):
+                c = self._expr()
+                self._expect("kw", "THEN")
+                arms.append((c, self._block(("ELSEIF", "ELSE", "ENDIF"))))
+            elif self._accept("kw", "ELSE"):
+                other = self._block(("ENDIF",))
             else:
-                self.expect("kw", "ENDIF")
+                self._expect("kw", "ENDIF")
                 return ("if", arms, other, ln)
 
-    def while_stmt(self) -> Node:
-        ln = self.expect("kw", "WHILE").line
-        cond = self.expr()
-        self.expect("kw", "DO")
-        body = self.block(("ENDWHILE",))
-        self.expect("kw", "ENDWHILE")
+    def _while_stmt(self) -> Node:
+        ln = self._expect("kw", "WHILE").line
+        cond = self._expr()
+        self._expect("kw", "DO")
+        body = self._block(("ENDWHILE",))
+        self._expect("kw", "ENDWHILE")
         return ("while", cond, body, ln)
 
-    def for_stmt(self) -> Node:
-        ln = self.expect("kw", "FOR").line
-        var = self.name()
-        self.expect("kw", "FROM")
-        e_from = self.expr()
-        self.expect("kw", "TO")
-        e_to = self.expr()
-        e_step = self.expr() if self.accept("kw", "STEP") else None
-        self.expect("kw", "DO")
-        body = self.block(("ENDFOR",))
-        self.expect("kw", "ENDFOR")
+    def _for_stmt(self) -> Node:
+        ln = self._expect("kw", "FOR").line
+        var = self._name()
+        self._expect("kw", "FROM")
+        e_from = self._expr()
+        self._expect("kw", "TO")
+        e_to = self._expr()
+        e_step = self._expr() if self._accept("kw", "STEP") else None
+        self._expect("kw", "DO")
+        body = self._block(("ENDFOR",))
+        self._expect("kw", "ENDFOR")
         return ("for", var, e_from, e_to, e_step, body, ln)
 
-    def test_stmt(self) -> Node:
-        ln = self.expect("kw", "TEST").line
-        e = self.expr()
+    def _test_stmt(self) -> Node:
+        ln = self._expect("kw", "TEST").line
+        e = self._expr()
         cases: list[tuple[list[Node], list[Node]]] = []
         default: list[Node] = []
-        while self.accept("kw", "CASE"):
-            values = [self.expr()]
-            while self.accept("op", ","):
-                values.append(self.expr())
-            self.expect("op", ":")
-            cases.append((values, self.block(("CASE", "DEFAULT", "ENDTEST"))))
-        if self.accept("kw", "DEFAULT"):
-            self.expect("op", ":")
-            default = self.block(("ENDTEST",))
-        self.expect("kw", "ENDTEST")
+        while self._accept("kw", "CASE"):
+            values = [self._expr()]
+            while self._accept("op", ","):
+                values.append(self._expr())
+            self._expect("op", ":")
+            cases.append((values, self._block(("CASE", "DEFAULT", "ENDTEST"))))
+        if self._accept("kw", "DEFAULT"):
+            self._expect("op", ":")
+            default = self._block(("ENDTEST",))
+        self._expect("kw", "ENDTEST")
         return ("test", e, cases, default, ln)
 
-    def args(self, end: str) -> list[Node]:
-        """Arguments up to ``end``: ``a, b \\Opt:=e \\Switch, name:=e``."""
+    def _args(self, end: str) -> list[Node]:
+        r"""Arguments up to ``end``: ``a, b \Opt:=e \Switch, name:=e``."""
         out: list[Node] = []
-        while not self.at("op", end):
-            if self.accept("op", "\\"):
-                name = self.name()
-                e = self.expr() if self.accept("op", ":=") else None
+        while not self._at("op", end):
+            if self._accept("op", "\\"):
+                name = self._name()
+                e = self._expr() if self._accept("op", ":=") else None
                 out.append((name, e, True))
             else:
                 name = None
-                if self.at("name") and self.toks[self.i + 1].value == ":=":
-                    name = self.name()
+                if self._at("name") and self.toks[self.i + 1].value == ":=":
+                    name = self._name()
                     self.i += 1
-                out.append((name, self.expr(), False))
-            if not self.accept("op", ",") and not self.at("op", "\\"):
+                out.append((name, self._expr(), False))
+            if not self._accept("op", ",") and not self._at("op", "\\"):
                 break
         return out
 
-    def target(self) -> Node:
-        e = self.postfix(("var", self.name()))
+    def _target(self) -> Node:
+        e = self._postfix(("var", self._name()))
         return e
 
     # ---- expressions -----------------------------------------------------------------------
 
-    def expr(self) -> Node:
-        if self.accept("kw", "NOT"):
-            e: Node = ("un", "NOT", self.and_term())
+    def _expr(self) -> Node:
+        if self._accept("kw", "NOT"):
+            e: Node = ("un", "NOT", self._and_term())
         else:
-            e = self.and_term()
-        while self.at_kw("OR", "XOR"):
-            op = str(self.expect("kw").value)
-            e = ("bin", op, e, self.and_term())
+            e = self._and_term()
+        while self._at_kw("OR", "XOR"):
+            op = str(self._expect("kw").value)
+            e = ("bin", op, e, self._and_term())
         return e
 
-    def and_term(self) -> Node:
-        e = self.relation()
-        while self.accept("kw", "AND"):
-            e = ("bin", "AND", e, self.relation())
+    def _and_term(self) -> Node:
+        e = self._relation()
+        while self._accept("kw", "AND"):
+            e = ("bin", "AND", e, self._relation())
         return e
 
-    def relation(self) -> Node:
-        e = self.simple()
-        if self.tok.kind == "op" and self.tok.value in _RELOPS:
-            op = str(self.expect("op").value)
-            e = ("bin", op, e, self.simple())
+    def _relation(self) -> Node:
+        e = self._simple()
+        if self._tok.kind == "op" and self._tok.value in _RELOPS:
+            op = str(self._expect("op").value)
+            e = ("bin", op, e, self._simple())
         return e
 
-    def simple(self) -> Node:
-        if self.tok.kind == "op" and self.tok.value in ("+", "-"):
-            op = str(self.expect("op").value)
-            e: Node = ("un", op, self.product())
+    def _simple(self) -> Node:
+        if self._tok.kind == "op" and self._tok.value in ("+", "-"):
+            op = str(self._expect("op").value)
+            e: Node = ("un", op, self._product())
         else:
-            e = self.product()
-        while self.tok.kind == "op" and self.tok.value in ("+", "-"):
-            op = str(self.expect("op").value)
-            e = ("bin", op, e, self.product())
+            e = self._product()
+        while self._tok.kind == "op" and self._tok.value in ("+", "-"):
+            op = str(self._expect("op").value)
+            e = ("bin", op, e, self._product())
         return e
 
-    def product(self) -> Node:
-        e = self.primary()
-        while (self.tok.kind == "op" and self.tok.value in ("*", "/")) or self.at_kw("DIV", "MOD"):
+    def _product(self) -> Node:
+        e = self._primary()
+        while (self._tok.kind == "op" and self._tok.value in ("*", "/")) \
+                or self._at_kw("DIV", "MOD"):
             op = str(self.toks[self.i].value)
             self.i += 1
-            e = ("bin", op, e, self.primary())
+            e = ("bin", op, e, self._primary())
         return e
 
-    def primary(self) -> Node:
-        t = self.tok
+    def _primary(self) -> Node:
+        t = self._tok
         if t.kind == "num":
             self.i += 1
             return ("num", t.value)
         if t.kind == "str":
             self.i += 1
             return ("str", t.value)
-        if self.accept("kw", "TRUE"):
+        if self._accept("kw", "TRUE"):
             return ("bool", True)
-        if self.accept("kw", "FALSE"):
+        if self._accept("kw", "FALSE"):
             return ("bool", False)
-        if self.accept("op", "("):
-            e = self.expr()
-            self.expect("op", ")")
+        if self._accept("op", "("):
+            e = self._expr()
+            self._expect("op", ")")
             return e
-        if self.accept("op", "["):
-            items = [self.expr()]
-            while self.accept("op", ","):
-                items.append(self.expr())
-            self.expect("op", "]")
+        if self._accept("op", "["):
+            items = [self._expr()]
+            while self._accept("op", ","):
+                items.append(self._expr())
+            self._expect("op", "]")
             return ("agg", items)
         if t.kind == "name":
-            name = self.name()
-            if self.accept("op", "("):
-                args = self.args(")")
-                self.expect("op", ")")
+            name = self._name()
+            if self._accept("op", "("):
+                args = self._args(")")
+                self._expect("op", ")")
                 return ("call", name, args, t.line)
-            return self.postfix(("var", name))
-        raise self.fail("an expression")
+            return self._postfix(("var", name))
+        raise self._fail("an expression")
 
-    def postfix(self, e: Node) -> Node:
+    def _postfix(self, e: Node) -> Node:
         while True:
-            if self.accept("op", "{"):
-                idx = [self.expr()]
-                while self.accept("op", ","):
-                    idx.append(self.expr())
-                self.expect("op", "}")
+            if self._accept("op", "{"):
+                idx = [self._expr()]
+                while self._accept("op", ","):
+                    idx.append(self._expr())
+                self._expect("op", "}")
                 e = ("idx", e, idx)
-            elif self.accept("op", "."):
-                e = ("comp", e, self.name())
+            elif self._accept("op", "."):
+                e = ("comp", e, self._name())
             else:
                 return e
 

@@ -1,4 +1,6 @@
-"""A loaded RAPID program: its modules' data and routines, linked against a controller's system
+"""A loaded RAPID program.
+
+Its modules' data and routines, linked against a controller's system
 (its instructions, functions, error numbers and I/O signals), run from ``main``.
 
 Loading follows the controller: every module is parsed, its data declared (initial values
@@ -27,6 +29,15 @@ from drivers.rapid_vm.values import PREDEFINED, convert, copy, default, known_ty
 #: A built-in: ``fn(where, positional values, optional values)``, the positions of its INOUT
 #: arguments (given as :class:`~drivers.rapid_vm.compiler.Ref`), and whether it is a function.
 Builtin = tuple[Callable[[str, list[Any], dict[str, Any]], Any], frozenset[int], bool]
+
+
+def _local_init(t: str, n: int, e: Callable[[Frame], Any] | None) -> Callable[[Frame], Any]:
+    """The initial value of a local variable: an array of ``n``, ``e``'s value, or the default."""
+    def init(fr: Frame) -> Any:
+        if n:
+            return [default(t) for _ in range(n)]
+        return convert(e(fr), t) if e is not None else default(t)
+    return init
 
 
 class Program:
@@ -115,16 +126,11 @@ class Program:
                 r = self.routines[name]
                 locals_ = {p.name: (p.type, p.dims) for p in r.params}
                 comp = Compiler(self, r, locals_, filename)
-                for _, dkind, t, dname, dims, init, dln in decls:
+                for _, _, t, dname, dims, init, dln in decls:
                     comp.line = dln
-                    if dims:
-                        n = int(comp.expr(dims[0])(Frame(r)))
-                        r.decls.append((dname, lambda fr, t=t, n=n: [default(t) for _ in range(n)]))
-                    elif init is not None:
-                        e = comp.expr(init)
-                        r.decls.append((dname, lambda fr, e=e, t=t: convert(e(fr), t)))
-                    else:
-                        r.decls.append((dname, lambda fr, t=t: default(t)))
+                    n = int(comp.expr(dims[0])(Frame(r))) if dims else 0
+                    e = comp.expr(init) if init is not None else None
+                    r.decls.append((dname, _local_init(t, n, e)))
                     comp.locals[dname] = (t, 1 if dims else 0)
                 r.body = comp.block(body)
                 r.handler = comp.block(handler) if handler is not None else None

@@ -1,4 +1,6 @@
-"""RAPID data in Python: ``num`` (single precision), ``bool``, ``string`` (at most 80 characters),
+"""RAPID data in Python.
+
+``num`` (single precision), ``bool``, ``string`` (at most 80 characters),
 the records the server uses, arrays, and the predefined data (``fine``, ``tool0``, ``wobj0``...).
 
 A ``num`` is a Python float that always holds a single-precision value: every literal, result

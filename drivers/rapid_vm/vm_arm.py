@@ -1,4 +1,6 @@
-"""The simulated arm under the RAPID interpreter: the mock's :class:`~drivers.mock.mock_arm.MockArm`
+r"""The simulated arm under the RAPID interpreter.
+
+The mock's :class:`~drivers.mock.mock_arm.MockArm`
 driven the way RAPID motion instructions drive a robot.
 
 A move instruction queues one segment; the arm runs the queue in order in simulated time. The

@@ -1,4 +1,6 @@
-"""``rapid://``: the real RAPID server (``drivers/abb/rapid/SGSERVER.mod``) run by the interpreter,
+"""``rapid://``: SGSERVER.mod itself, run by the RAPID interpreter.
+
+The real RAPID server (``drivers/abb/rapid/SGSERVER.mod``) run by the interpreter,
 on the mock's fault-injected line, pseudo-terminal and simulated arm: a third robot backend
 beside ``mock://`` and the mock behind a pty, for the link's contract tests and the soak.
 
@@ -91,14 +93,16 @@ def parse_rapid_options(query: str) -> dict[str, Any]:
 class RapidController:
     """SGSERVER.mod in the interpreter on a simulated S4 (or, ``reach=1``, RobotWare) controller.
 
-    ``modules``: (text, file name) of the RAPID modules to load instead of the package's.
+    ``modules``: (text, file name) of the RAPID modules to load instead of the package's;
+    ``entry``: the routine to start (``main``).
     """
 
     def __init__(self, *, seed: int = 0, drop: float = 0.0, corrupt: float = 0.0,
                  dup: float = 0.0, delay_ms: float = 0.0, baud: int = 0, disconnect: float = 0.0,
                  time_scale: float = 0.0, fail_at_point: int | None = None, reach: int = 0,
-                 modules: list[tuple[str, str]] | None = None) -> None:
+                 modules: list[tuple[str, str]] | None = None, entry: str = "main") -> None:
         self.seed = seed
+        self.entry = entry
         self.schedule = Schedule()
         self.line = RapidLine(self.schedule, seed=seed, drop=drop, corrupt=corrupt, dup=dup,
                               delay_ms=delay_ms, baud=baud, disconnect=disconnect)
@@ -163,7 +167,7 @@ class RapidController:
             self.machine.clear_input()
             self._booted.set()
             try:
-                self.program.run("main")
+                self.program.run(self.entry)
                 self.stopped_with = "the program ended"
             except RapidStop as err:
                 self.stopped_with = str(err)
@@ -225,6 +229,11 @@ class RapidController:
                 "duplicates_suppressed": c["requests"] - c["executed_requests"]}
 
     @property
+    def tp_log(self) -> list[str]:
+        """What the program wrote on the teach pendant (TPWrite)."""
+        return self.machine.tp_log
+
+    @property
     def link_path(self) -> str | None:
         """The pty's stable path while served."""
         return self.pty.link_path
@@ -253,8 +262,10 @@ class RapidController:
         self.pty.disconnect(timeout_s, wait)
 
     def restart(self) -> None:
-        """A controller restart: arc off, motion stopped, the program started again from main
-        (PERS data kept, everything else forgotten). Returns at once; usable from any thread."""
+        """A controller restart: arc off, motion stopped, the program started again from main.
+
+        PERS data are kept, everything else forgotten. Returns at once; usable from any thread.
+        """
         self.arm.stop_and_clear()
         self.machine.signals["doweld"] = 0.0
         self.arm.set_arc(False)
@@ -277,9 +288,11 @@ class RapidController:
 
 def open_rapid_robot(url: str, *, limits: Any = None, timeout_s: float = 5.0,
                      **link_options: Any) -> Any:
-    """``rapid://?opts``: SGSERVER.mod in the interpreter on a pty, an AbbRobot on it
-    (``robot.mock`` is the :class:`RapidController`). ConfigError for bad options or a module
-    that does not load."""
+    """``rapid://?opts``: SGSERVER.mod in the interpreter on a pty, and an AbbRobot on it.
+
+    ``robot.mock`` is the :class:`RapidController`. ConfigError for bad options or a module that
+    does not load.
+    """
     from drivers.abb.abb_link import line_time_s
     from drivers.abb.abb_robot import AbbRobot
 

@@ -1,0 +1,135 @@
+"""SGSERVER.mod itself, run by the RAPID interpreter and talked to over its pseudo-terminal with raw
+protocol lines: what the module does where the mock cannot show it (a string that would exceed
+80 characters is refused with an error line and the program runs on; the optional reach check
+loads only on a controller that has CalcJointT)."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+
+import pytest
+import serial
+
+from drivers.abb import abb_codec as codec
+from drivers.rapid_vm.errors import RapidLoadError
+from drivers.rapid_vm.machine import ERRORS_S4, SIGNALS, Machine
+from drivers.rapid_vm.program import Program
+from drivers.rapid_vm.vm_controller import RAPID_DIR, RapidController
+
+SERVER = (RAPID_DIR / "SGSERVER.mod").read_text()
+LONG_REPLIES = f'''MODULE SGTEST
+  PROC t_main()
+    Open "sio1:", ch \\Bin;
+    Reply 0, "OK {"x" * 68}";
+    Reply 0, "OK {"y" * 74}";
+    Close ch;
+    main;
+  ENDPROC
+ENDMODULE
+'''
+
+
+class Raw:
+    """Raw protocol lines to and from a served controller."""
+
+    def __init__(self, port: serial.Serial) -> None:
+        self.port, self.seq = port, 0
+
+    def line(self) -> codec.Frame:
+        raw = self.port.readline()
+        assert raw.endswith(b"\n"), f"no line from the controller (got {raw!r})"
+        return codec.decode_frame(raw)
+
+    def reply(self) -> codec.Frame:
+        while (f := self.line()).kind == "E":
+            pass
+        return f
+
+    def ask(self, body: str) -> str:
+        self.seq = self.seq % 99 + 1
+        self.port.write(codec.encode_frame("Q", self.seq, body))
+        f = self.reply()
+        assert f.seq == self.seq
+        return f.body
+
+
+@contextlib.contextmanager
+def served(ctl: RapidController) -> Iterator[Raw]:
+    path = ctl.serve_pty()
+    try:
+        with serial.serial_for_url(path, timeout=3.0) as port:
+            yield Raw(port)
+    finally:
+        ctl.stop()
+
+
+def test_a_reply_over_71_characters_is_refused_and_the_program_runs_on():
+    ctl = RapidController(modules=[(SERVER, "SGSERVER.mod"), (LONG_REPLIES, "SGTEST.mod")],
+                          entry="t_main")
+    with served(ctl) as raw:
+        assert raw.line().body == "OK " + "x" * 68  # 71 characters: an 80-character line
+        assert raw.line().body == "ER 14 reply too long"
+        assert raw.ask("ID") == "OK SGRS 1 IRB2400 250"
+    assert ctl.stopped_with is None
+
+
+def test_without_the_length_check_the_same_reply_stops_the_program():
+    # the check is what keeps the program alive: take it out and the interpreter stops the
+    # program where the controller would (a string over 80 characters)
+    guard = 'IF StrLen(body) > MAXBODY RETURN "ER 14 reply too long";'
+    assert guard in SERVER
+    ctl = RapidController(modules=[(SERVER.replace(guard, ""), "SGSERVER.mod"),
+                                   (LONG_REPLIES, "SGTEST.mod")], entry="t_main")
+    with served(ctl) as raw:
+        assert raw.line().body == "OK " + "x" * 68
+        raw.port.timeout = 0.5
+        raw.port.write(codec.encode_frame("Q", 1, "ID"))
+        assert raw.port.readline() == b""  # nobody answers any more
+    assert ctl.stopped_with is not None and "characters" in ctl.stopped_with
+
+
+def test_an_unknown_request_with_a_long_word_is_answered_with_its_first_8_characters():
+    with served(RapidController()) as raw:
+        assert raw.ask("HI 7").startswith("OK ")
+        assert raw.ask("Z" * 60) == "ER 11 unknown request ZZZZZZZZ"
+        assert raw.ask("XP " + "9" * 60) == "ER 12 bad arguments to XP"
+        assert raw.ask("ID") == "OK SGRS 1 IRB2400 250"
+
+
+@pytest.mark.parametrize("job", ["j" * 17, "x" * 60, "bad-name"])
+def test_a_job_name_outside_the_protocol_is_refused_when_the_operator_asks(job):
+    ctl = RapidController()
+    with served(ctl) as raw:
+        assert raw.ask("HI 7").startswith("OK ")
+        ctl.request_cycle(job)
+        assert raw.ask("ST").split()[-1] == "-"  # nothing latched; the reply fits a line
+        ctl.request_cycle("job_42")
+        assert raw.ask("ST").split()[-1] == "job_42"
+        assert raw.ask("CK") == "OK"
+    assert ctl.tp_log == ["seamguide: sg_job must be 1-16 letters, digits or _"]
+    assert ctl.stopped_with is None
+
+
+def test_reach_check_only_where_the_controller_has_calcjointt():
+    reach = (RAPID_DIR / "SGREACH.mod").read_text()
+    m = Machine(None, lambda b: None, "s4")  # type: ignore[arg-type]
+    p = Program(m.builtins(), ERRORS_S4, SIGNALS)
+    p.load(SERVER, "SGSERVER.mod")
+    p.load(reach, "SGREACH.mod")
+    with pytest.raises(RapidLoadError, match="SGREACH.mod:.*unknown function 'calcjointt'"):
+        p.link()
+    far = ["XP 0 5000 0 0", "XO 0 1 0 0 0"]
+    with served(RapidController(reach=1)) as raw:  # RobotWare: refused before it moves
+        raw.ask("HI 7")
+        assert [raw.ask(b) for b in far] == ["OK", "OK"]
+        assert raw.ask("ML 1") == "ER 30 target unreachable"
+    ctl = RapidController(reach=0)  # S4 BaseWare: accepted, and the motion itself fails
+    with served(ctl) as raw:
+        raw.ask("HI 7")
+        for b in far:
+            raw.ask(b)
+        assert raw.ask("ML 1") == "OK 1"
+        ev = raw.line()
+        assert (ev.kind, ev.body) == ("E", "FL 1 40 0")
+        assert raw.ask("ST").split()[1:7] == ["0", "0", "1", "F", "0", "40"]
