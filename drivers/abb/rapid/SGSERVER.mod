@@ -73,6 +73,7 @@ MODULE SGSERVER
   VAR bool haverot{251};
   VAR num path_n := 0;
   VAR robtarget snap;
+  VAR bool havesnap := FALSE;
   VAR jointtarget jt;
 
   ! motion state
@@ -388,11 +389,14 @@ MODULE SGSERVER
     IF c = "RP" THEN
       IF nf <> 1 RETURN "ER 12 bad arguments to RP";
       snap := CRobT(\Tool:=tool0 \WObj:=wobj0);
+      havesnap := TRUE;
       RETURN "OK " + NumToStr(snap.trans.x, 3) + " " + NumToStr(snap.trans.y, 3) + " "
         + NumToStr(snap.trans.z, 3);
     ENDIF
     IF c = "RQ" THEN
       IF nf <> 1 RETURN "ER 12 bad arguments to RQ";
+      ! no RP before it: the orientation now (as the mock answers)
+      IF NOT havesnap snap := CRobT(\Tool:=tool0 \WObj:=wobj0);
       RETURN "OK " + NumToStr(snap.rot.q1, 6) + " " + NumToStr(snap.rot.q2, 6) + " "
         + NumToStr(snap.rot.q3, 6) + " " + NumToStr(snap.rot.q4, 6);
     ENDIF
