@@ -33,7 +33,7 @@ from drivers.sim.sim_render import render, suggest_view_poses
 from drivers.sim.sim_scene import DIFFICULTIES, KINDS, make_scene
 
 CACHE = Path(__file__).resolve().parent / "cache" / "detect"
-CACHE_TAG = "v1"
+CACHE_TAG = "v2"
 #: First seed of each set (disjoint seed ranges, then split by sim_look.split_of).
 SEED_START = {"wide": 10000, "pen": 50000}
 #: A case: (set, difficulty, split, seed).
@@ -79,12 +79,11 @@ def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],
 
 def render_order(groups: dict[str, list[Case]]
                  ) -> list[Case]:
-    """All cases, the groups interleaved (the first cases of every group come first)."""
-    out = []
-    longest = max((len(g) for g in groups.values()), default=0)
-    for i in range(longest):
-        out += [g[i] for g in groups.values() if i < len(g)]
-    return out
+    """All cases, the groups interleaved in proportion to their sizes (a run stopped early has
+    every group done to about the same share)."""
+    keyed = [((i + 0.5) / len(g), k, c) for k, g in enumerate(groups.values())
+             for i, c in enumerate(g)]
+    return [c for _, _, c in sorted(keyed)]
 
 
 def classic_pose(scene: Any, cam: Any, seed: int) -> np.ndarray:

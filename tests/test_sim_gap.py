@@ -1,0 +1,98 @@
+"""The wide look's gap across the seam (drivers/sim/sim_gap.py), each phenomenon with its truth."""
+
+import numpy as np
+
+from controller.geometry.camera_model import default_camera
+from drivers.sim.sim_gap import edges, gap_band_mm
+from drivers.sim.sim_render import GAMMA, render, suggest_view_poses
+from drivers.sim.sim_scene import make_scene
+
+CAM = default_camera().scaled(0.25)
+NEUTRAL = dict(bow_mm=0.0, ragged_mm=0.0, taper=0.0, tilt_a_rad=0.0, tilt_b_rad=0.0,
+               key_shadow=(), ring_glare=0.0, jpeg_quality=0, scanner_dots=0, pens=0,
+               pen_cross=False, step_shadow_mm=0.0, corner_mm=0.0, cast_bgr=None, tacks=0,
+               spatter=0, ground_mm=(0.0, 0.0), rust=0.0, pits=0.0, spot=0.0, table="plain",
+               standoff_mm=350.0, gap_contrast=0.95, face_a=0.05, face_b=0.05)
+
+
+def scene(gap_mm=1.6, **look):
+    return make_scene("straight", 3, "easy", variety="wide", look={**NEUTRAL, **look},
+                      noise_dn=0.0, blur_px=0.0, glare=0.0, uneven_light=0.0, gap_mm=gap_mm,
+                      length_mm=150.0, albedo_a=0.6, albedo_b=0.6, brush_contrast=0.0,
+                      clutter=False)
+
+
+def profile(sc, T=None, half=14):
+    """Linear radiance across the seam at its middle, sampled every 0.25 px (offset, value)."""
+    if T is None:
+        T = suggest_view_poses(sc, CAM, n=1, standoff_mm=120.0)[0]
+    r = render(sc, CAM, T, seed=0)
+    img = (r.image.astype(float) / 255.0) ** GAMMA
+    P = r.seam_px
+    i = len(P) // 2
+    t = (P[i + 5] - P[i - 5]) / np.linalg.norm(P[i + 5] - P[i - 5])
+    n = np.array([-t[1], t[0]])
+    x = np.arange(-half, half + 0.01, 0.25)
+    q = np.round(P[i] + np.outer(x, n)).astype(int)
+    return x, img[q[:, 1], q[:, 0]], r
+
+
+def test_ragged_edges_wander_about_the_nominal_gap():
+    sc = scene(ragged_mm=0.3)
+    a = np.linspace(-60, 60, 4001)
+    lo, hi = edges(sc, a)
+    g2 = sc.gap_mm / 2
+    mid = (lo + hi) / 2
+    assert np.std(hi - g2) > 0.1 and np.std(-lo - g2) > 0.1  # each edge jags
+    assert abs(np.mean(mid)) < 0.05  # zero-mean: the truth is the nominal middle
+    assert np.all(hi - lo > 0.15 * sc.gap_mm)  # never closed
+    assert gap_band_mm(sc) > g2 + 1.0
+    smooth = scene()
+    assert np.allclose(edges(smooth, a)[1], g2)
+
+
+def test_taper_widens_the_gap_toward_one_end():
+    sc = scene(taper=0.4)
+    lo, hi = edges(sc, np.array([-sc.chord_mm / 2, sc.chord_mm / 2]))
+    w = hi - lo
+    assert w[1] > 1.3 * w[0]
+
+
+def test_cut_face_fills_the_far_side_of_the_gap():
+    # A camera off to one side sees the far sheet's cut face inside the gap: the dark part of the
+    # gap is pushed to the near side, the truth (middle of the top edges) is not.
+    dark = scene()
+    lit = scene(face_a=0.9, face_b=0.9)
+    T = suggest_view_poses(dark, CAM, n=2, standoff_mm=120.0, baseline_mm=40.0)[0]
+    x, v_dark, r = profile(dark, T)
+    _, v_lit, _ = profile(lit, T)
+    inside = np.abs(x) < 0.5 * r.gap_px - 0.5
+    assert inside.sum() > 4
+
+    def lopsided(v):  # mean of the gap's two halves, difference
+        return abs(v[inside & (x < 0)].mean() - v[inside & (x > 0)].mean())
+
+    assert lopsided(v_dark) < 0.03
+    assert lopsided(v_lit) > 0.1  # the lit face on the far side, the dark floor on the near one
+    assert v_lit[inside].mean() > v_dark[inside].mean() + 0.05
+
+
+def test_ridge_and_ground_strip_brighten_beside_the_gap():
+    plain_x, plain, r = profile(scene())
+    _, ground = profile(scene(ground_mm=(8.0, 8.0), ground_gain=1.6))[:2]
+    _, ridge = profile(scene(ridge_mm=0.4, ridge_gain=1.0))[:2]
+    far = np.abs(plain_x) > 0.5 * r.gap_px + 3
+    assert np.median(ground[far] / plain[far]) > 1.4
+    near = (np.abs(plain_x) > 0.5 * r.gap_px) & (np.abs(plain_x) < 0.5 * r.gap_px + 2.5)
+    assert ridge[near].max() > 1.5 * plain[near].max()
+
+
+def test_plate_edge_shadow_darkens_one_side_only():
+    x, plain, r = profile(scene())
+    _, shadow = profile(scene(step_shadow_mm=1.5, step_side=1, step_depth=0.6))[:2]
+    band = (np.abs(x) > 0.5 * r.gap_px + 1) & (np.abs(x) < 0.5 * r.gap_px + 4)
+    ratio = shadow[band] / plain[band]
+    side = np.sign(x[band])
+    # the seam's "b" side is on one side of the image profile; exactly one side is darker
+    dark_side = [np.median(ratio[side == s]) < 0.6 for s in (-1, 1)]
+    assert sorted(dark_side) == [False, True]
