@@ -10,13 +10,17 @@ DOC = Path(__file__).parent.parent / "docs" / "cycle.md"
 
 
 class Model:
-    def __init__(self, views=2, confirm=False):
+    def __init__(self, views=2, confirm=False, fixed=False):
         self.views_left = views - 1
         self.confirm = confirm
+        self.fixed = fixed
         self.seen = []
 
     def more_views(self):
         return self.views_left > 0
+
+    def no_motion_next(self):
+        return self.fixed
 
     def needs_confirmation(self):
         return self.confirm
@@ -41,6 +45,19 @@ def test_diagram_lists_every_state_and_transition():
     for t in TRANSITIONS:
         if t["source"] == CycleState.IDLE and t["trigger"] == "start":
             assert "IDLE --> MOVING_TO_VIEW: start" in d
+
+
+def test_fixed_cameras_go_straight_to_capturing():
+    m = Model(views=2, fixed=True)
+    build_machine(m)
+    m.start()
+    assert m.state is CycleState.CAPTURING
+    m.captured()  # a fixed group, then another one captured without motion
+    assert m.state is CycleState.CAPTURING
+    m.views_left = 0
+    m.captured()
+    assert m.state is CycleState.LOCATING
+    assert CycleState.MOVING_TO_VIEW not in m.seen
 
 
 def test_happy_path_with_two_views():

@@ -18,7 +18,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,11 +26,14 @@ from typing import Any
 import numpy as np
 
 from calibration.calibration_file import Calibration, calibration_to_dict
+from controller.cell.cell_config import DEFAULT_CAMERA
 from controller.cell.cycle_machine import CycleState, build_machine
 from controller.cell.cycle_record import CycleRecord
 from controller.cell.job import Job
 from controller.cell.seam_plot import seam_plot_png
+from controller.cell.view_cameras import ViewCamera, capture_groups, resolve_view_cameras
 from controller.errors import CameraError, CycleAborted, InputError, RobotFault, SeamguideError
+from controller.geometry.camera_model import CameraModel
 from controller.geometry.kinematics import RobotModel, check_pose_consistency, flange_pose, irb2400
 from controller.geometry.poses import pose_to_dict
 from controller.path.rapid_export import rapid_module
@@ -61,6 +64,7 @@ class CycleResult:
     record_path: Path | None = None
     state_history: list[tuple[str, float]] = field(default_factory=list)
     camera_poses: list[np.ndarray] = field(default_factory=list)
+    capture_skews_s: list[float] = field(default_factory=list)
     detections: list[Any] = field(default_factory=list)
     images: list[np.ndarray] = field(default_factory=list)
 
@@ -100,15 +104,20 @@ class WeldCycle:
     abort: Callable[[], bool]
     reset: Callable[[], bool]
 
-    def __init__(self, robot: Any, camera: Any, calibration: Calibration, job: Job, *,
+    def __init__(self, robot: Any, camera: Any,
+                 calibration: Calibration | Mapping[str, Calibration], job: Job, *,
                  records_root: str | Path | None = None, confirm: Confirmer | None = None,
                  detector: Detector | None = None, robot_model: RobotModel | None = None,
                  safe_joints_deg: tuple[float, ...] | None = None,
                  clock: Callable[[], float] = time.monotonic,
                  on_state: Callable[[str], None] | None = None) -> None:
         self.robot = robot
-        self.camera = camera
-        self.calibration = calibration
+        # One camera and calibration (a one-camera cell), or both by camera name.
+        self.cameras: Mapping[str, Any] = (camera if isinstance(camera, Mapping)
+                                           else {DEFAULT_CAMERA: camera})
+        self.calibrations: dict[str, Calibration] = (
+            dict(calibration) if isinstance(calibration, Mapping)
+            else {DEFAULT_CAMERA: calibration})
         self.job = job
         self.model = robot_model or irb2400()
         self.confirm = confirm
@@ -120,6 +129,11 @@ class WeldCycle:
         self.record: CycleRecord | None = None
         self.result = CycleResult(status="incomplete")
         self._view_index = 0
+        self._groups: list[list[int]] = []
+        self._group_index = 0
+        self._view_cams: list[ViewCamera] = []
+        self._motions = 0
+        self._joints_read: dict[int, np.ndarray] = {}
         self._state_t0 = clock()
         self._abort = threading.Event()
         self._abort_reason = ""
@@ -129,7 +143,15 @@ class WeldCycle:
     # ------------------------------------------------------------------ machine callbacks
     def more_views(self) -> bool:
         """Condition: views remain to be captured."""
-        return self._view_index + 1 < len(self.job.views)
+        return self._group_index + 1 < len(self._groups)
+
+    def no_motion_next(self) -> bool:
+        """Condition: the next views to capture are fixed cameras' (no motion before them)."""
+        nxt = self._group_index + (0 if self.state is CycleState.IDLE else 1)
+        if nxt >= len(self._groups):
+            return False
+        v = self._view_cams[self._groups[nxt][0]]
+        return v.fixed and v.joints_deg is None
 
     def needs_confirmation(self) -> bool:
         """Condition: the job asks the operator to confirm the planned path."""
@@ -169,17 +191,25 @@ class WeldCycle:
         if self.records_root is not None:
             self.record = CycleRecord(self.records_root, self.job.name)
             self.result.record_path = self.record.path
-            self.record.save_text("calibration.yaml", _yaml(calibration_to_dict(self.calibration)))
+            for cam, calib in self.calibrations.items():
+                name = "calibration.yaml" if cam == DEFAULT_CAMERA else f"calibration_{cam}.yaml"
+                self.record.save_text(name, _yaml(calibration_to_dict(calib)))
         try:
-            self.job.require_taught()
+            self._view_cams = resolve_view_cameras(self.job, self.calibrations)
+            self._groups = capture_groups(self._view_cams)
+            self.result.images = [np.zeros((0, 0), np.uint8)] * len(self.job.views)
+            self.result.camera_poses = [np.eye(4)] * len(self.job.views)
             self._check_abort()
             self.start()
-            for i, view in enumerate(self.job.views):
-                self._view_index = i
-                self._move_to_view(view)
-                self.arrived()
-                self._capture(i, view.name)
+            for g, group in enumerate(self._groups):
+                self._group_index = g
+                if self.state is CycleState.MOVING_TO_VIEW:
+                    self._move_to_view(group[0])
+                    self.arrived()
+                self._capture(group)
                 self.captured()
+            if self.record is not None:
+                self.record.note(robot_motions_before_weld=self._motions)
             seam = self._locate()
             self.located()
             path = self._plan(seam)
@@ -215,8 +245,10 @@ class WeldCycle:
         if self._abort.is_set():
             raise CycleAborted(self._abort_reason or "aborted")
 
-    def _move_to_view(self, view: Any) -> None:
+    def _move_to_view(self, i: int) -> None:
+        view = self.job.views[i]
         t = self.job.timeouts.move_s
+        self._motions += 1
         handle = self.robot.move_joints(np.asarray(view.joints_deg), speed_mm_s=view.speed_mm_s)
         handle.wait(timeout_s=self._remaining(t))
         self._check_abort()
@@ -227,54 +259,86 @@ class WeldCycle:
                              f"joints (tolerance {ARRIVAL_TOLERANCE_DEG} deg)", joints_deg=joints)
         reported = self.robot.read_pose()
         check_pose_consistency(self.model, joints, reported)
-        T_base_cam = flange_pose(self.model, joints, check_limits=False) @ self._hand_eye()
-        self.result.camera_poses.append(T_base_cam)
-        if self.record is not None:
-            self.record.save_json(f"{view.name}.json", {
-                "image": f"{view.name}.png", "joints_deg": [round(float(v), 4) for v in joints],
-                "camera_pose_computed": pose_to_dict(T_base_cam)})
+        self._joints_read[i] = joints
 
-    def _hand_eye(self) -> np.ndarray:
-        if self.calibration.T_flange_cam is None:
-            from controller.errors import CalibrationError
+    def _camera_pose(self, i: int) -> np.ndarray:
+        """``T_base_cam`` of view ``i``: a fixed camera's calibrated pose, or FK @ hand-eye."""
+        vc = self._view_cams[i]
+        calib = self.calibrations[vc.camera]
+        if vc.fixed:
+            assert calib.T_base_cam is not None
+            return np.asarray(calib.T_base_cam)
+        assert calib.T_flange_cam is not None
+        return flange_pose(self.model, self._joints_read[i], check_limits=False) @ \
+            calib.T_flange_cam
 
-            raise CalibrationError("the calibration has no hand_eye transform: the weld cycle "
-                                   "needs the camera's pose on the flange; run `seamguide "
-                                   "calibrate` with the robot")
-        return self.calibration.T_flange_cam
-
-    def _capture(self, i: int, name: str) -> None:
+    def _capture(self, group: list[int]) -> None:
         from controller.vision.image_io import check_image
+        from drivers.camera_sync import grab_together
 
-        self._remaining(self.job.timeouts.capture_s)
-        frame = self.camera.grab()
-        try:
-            image = check_image(frame, name=f"view {name} from the camera",
-                                camera=self.calibration.camera)
-        except InputError as err:  # a black, saturated or wrong-size frame is a camera fault
-            raise CameraError(str(err), view=name) from err
-        self.result.images.append(image)
-        if self.record is not None:
-            self.record.save_image(f"{name}.png", image)
+        left = self._remaining(self.job.timeouts.capture_s)
+        cams = [self._view_cams[i].camera for i in group]
+        if len(group) == 1:
+            frames = [self.cameras[cams[0]].grab()]
+            skew = None
+        else:
+            got, skew = grab_together(self.cameras, cams, left)
+            frames = [f.image for f in got]
+        for i, cam, frame in zip(group, cams, frames, strict=True):
+            name = self.job.views[i].name
+            try:
+                image = check_image(frame, name=f"view {name} from camera {cam}",
+                                    camera=self.calibrations[cam].camera)
+            except InputError as err:  # a black, saturated or wrong-size frame is a camera fault
+                raise CameraError(str(err), view=name, camera=cam) from err
+            T_base_cam = self._camera_pose(i)
+            self.result.images[i] = image
+            self.result.camera_poses[i] = T_base_cam
+            if self.record is not None:
+                self.record.save_image(f"{name}.png", image)
+                self.record.save_json(f"{name}.json", self._view_doc(i, T_base_cam, skew))
+        if skew is not None:
+            self.result.capture_skews_s.append(skew)
+            log.info("views %s captured together, trigger skew %.2f ms",
+                     ", ".join(self.job.views[i].name for i in group), 1000 * skew)
+            if self.record is not None:
+                self.record.note(capture_skew_ms=[round(1000 * s, 3)
+                                                  for s in self.result.capture_skews_s])
         self._check_abort()
+
+    def _view_doc(self, i: int, T_base_cam: np.ndarray, skew: float | None) -> dict[str, Any]:
+        """The record's view file of view ``i`` (DESIGN.md's contract, plus what was measured)."""
+        view, vc = self.job.views[i], self._view_cams[i]
+        doc: dict[str, Any] = {"image": f"{view.name}.png"}
+        if vc.camera != DEFAULT_CAMERA or len(self.calibrations) > 1:
+            doc["camera"] = vc.camera
+        if vc.fixed:
+            doc["camera_pose"] = pose_to_dict(T_base_cam)
+        else:
+            doc["joints_deg"] = [round(float(v), 4) for v in self._joints_read[i]]
+            doc["camera_pose_computed"] = pose_to_dict(T_base_cam)
+        if skew is not None:
+            doc["capture_skew_ms"] = round(1000 * skew, 3)
+        return doc
 
     def _locate(self) -> Seam3D:
         from controller.stereo.view_geometry import view_layout_warning
         from controller.vision.seam_detect import detect_seams
 
         t = self.job.timeouts.locate_s
-        cam = self.calibration.camera
+        cams = [self.calibrations[vc.camera].camera for vc in self._view_cams]
         warning = view_layout_warning(self.result.camera_poses)
         if warning is not None:
             log.warning("job %s: %s", self.job.name, warning)
             if self.record is not None:
                 self.record.note(view_layout_warning=warning)
         observations = []
-        dets = detect_seams(self.result.images, camera=cam,
-                            rois=[self._roi(T) for T in self.result.camera_poses],
+        dets = detect_seams(self.result.images, camera=cams,
+                            rois=[self._roi(c, T) for c, T in zip(cams, self.result.camera_poses,
+                                                                  strict=True)],
                             detector=self.detector)
-        for view, image, T, det in zip(self.job.views, self.result.images,
-                                       self.result.camera_poses, dets, strict=True):
+        for view, cam, image, T, det in zip(self.job.views, cams, self.result.images,
+                                            self.result.camera_poses, dets, strict=True):
             self.result.detections.append(det)
             if self.record is not None:
                 self._save_overlay(view.name, image, det)
@@ -293,9 +357,8 @@ class WeldCycle:
         self._check_abort()
         return seam
 
-    def _roi(self, T_base_cam: np.ndarray) -> tuple[int, int, int, int] | None:
-        """Bounding box (px) of the job's nominal seam sphere seen from ``T_base_cam``."""
-        cam = self.calibration.camera
+    def _roi(self, cam: CameraModel, T_base_cam: np.ndarray) -> tuple[int, int, int, int] | None:
+        """Bounding box (px) of the job's nominal seam sphere seen by ``cam`` at ``T_base_cam``."""
         c = np.asarray(self.job.seam.nominal_centre_mm)
         r = self.job.seam.nominal_radius_mm
         pts = c + r * np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1)

@@ -37,9 +37,14 @@ class CycleState(Enum):
 S = CycleState
 ACTIVE = [S.MOVING_TO_VIEW, S.CAPTURING, S.LOCATING, S.PLANNING, S.CONFIRMING, S.WELDING]
 
+# Views of fixed cameras need no motion: a cycle that starts with them goes straight to
+# capturing, and they are captured together (one CAPTURING for the group).
 TRANSITIONS: list[dict[str, Any]] = [
+    {"trigger": "start", "source": S.IDLE, "dest": S.CAPTURING, "conditions": "no_motion_next"},
     {"trigger": "start", "source": S.IDLE, "dest": S.MOVING_TO_VIEW},
     {"trigger": "arrived", "source": S.MOVING_TO_VIEW, "dest": S.CAPTURING},
+    {"trigger": "captured", "source": S.CAPTURING, "dest": S.CAPTURING,
+     "conditions": ["more_views", "no_motion_next"]},
     {"trigger": "captured", "source": S.CAPTURING, "dest": S.MOVING_TO_VIEW,
      "conditions": "more_views"},
     {"trigger": "captured", "source": S.CAPTURING, "dest": S.LOCATING},
@@ -64,6 +69,9 @@ def build_machine(model: Any) -> LockedMachine:
 
 class _DiagramModel:
     def more_views(self) -> bool:
+        return False
+
+    def no_motion_next(self) -> bool:
         return False
 
     def needs_confirmation(self) -> bool:

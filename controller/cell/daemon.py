@@ -27,8 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from calibration.calibration_file import Calibration, load_calibration
-from controller.cell.cell_config import CellConfig, load_cell_config
+from calibration.calibration_file import Calibration
+from controller.cell.cell_cameras import open_cell_camera
+from controller.cell.cell_config import CellConfig, load_calibrations, load_cell_config
 from controller.cell.control_socket import ControlServer
 from controller.cell.cycle import WeldCycle
 from controller.cell.cycle_record import mark_interrupted, rotate_records
@@ -61,34 +62,6 @@ def open_cell_robot(cfg: CellConfig) -> Any:
     return open_robot(cfg.robot.url, timeout_s=cfg.robot.timeout_s)
 
 
-def open_cell_camera(cfg: CellConfig, robot: Any) -> Any:
-    """The cell's camera; a ``sim:`` camera is wired to the mock robot behind ``robot``.
-
-    The simulated camera renders from the mock robot's actual flange pose times the simulated
-    cell's true hand-eye transform, so it needs ``robot.url = "mock://..."``. Raises
-    :class:`ConfigError` / :class:`CameraError`.
-    """
-    from drivers.cameras import open_camera
-
-    if not cfg.camera.url.startswith("sim:"):
-        return open_camera(cfg.camera.url)
-    if getattr(robot, "mock", None) is None:
-        raise ConfigError(f"{cfg.path}: camera.url is sim: (a simulated camera), which "
-                          f"renders from the mock robot's pose: robot.url must be mock://")
-    from drivers.sim.sim_cell import default_sim_cell
-    from drivers.sim.sim_scene import make_scene
-
-    assert cfg.sim is not None
-    scene = make_scene(cfg.sim.scene, cfg.sim.seed, cfg.sim.difficulty)
-    cell = default_sim_cell()
-    mock = robot.mock
-
-    def pose() -> np.ndarray:
-        return np.asarray(mock.flange_pose() @ cell.T_flange_cam)
-
-    return open_camera(cfg.camera.url, scene=scene, camera_model=cell.camera, pose_source=pose)
-
-
 class Daemon:
     """The long-running cell process; :meth:`serve` blocks until SIGTERM or :meth:`shutdown`."""
 
@@ -110,7 +83,7 @@ class Daemon:
         self.last_cycle: dict[str, Any] | None = None
         self.robot: Any = None
         self.camera: Any = None
-        self.calibration: Calibration | None = None
+        self.calibration: dict[str, Calibration] | None = None
         self.robot_state = "disconnected"
         self.reloads = 0
         self.camera_state = "closed"
@@ -242,7 +215,7 @@ class Daemon:
         for d in marked:
             log.warning("cycle record %s was left incomplete by a previous run: marked "
                         "interrupted", d)
-        self.calibration = load_calibration(self.cfg.calibration)
+        self.calibration = load_calibrations(self.cfg)
         self._connect_robot()
         self._server = ControlServer(self.cfg.control.socket, self.handle_request,
                                      self.cfg.control.max_line_bytes)
@@ -475,11 +448,12 @@ class Daemon:
         self._reload.clear()
         try:
             new = load_cell_config(self.config_path)
-            calib = load_calibration(new.calibration)
+            calib = load_calibrations(new)
         except SeamguideError as err:
             log.error("SIGHUP: configuration not reloaded, keeping the old one: %s", err)
             return
-        devices_changed = (new.robot != self.cfg.robot or new.camera != self.cfg.camera
+        devices_changed = (new.robot != self.cfg.robot
+                           or new.camera_entries() != self.cfg.camera_entries()
                            or new.sim != self.cfg.sim)
         with self._lock:
             self.cfg = new

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import tomllib
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,13 +28,24 @@ from controller.stereo.locate import QualityLimits
 
 @dataclass(frozen=True)
 class ViewSpec:
-    """A taught view pose: controller joints (deg) and the speed to move there (mm/s)."""
+    """A view: the camera that takes it, the taught robot joints (deg), the speed there (mm/s).
+
+    ``camera`` names one of the cell's cameras (None: the cell's only camera). A view of a camera
+    on the flange needs ``joints_deg``; a view of a fixed camera needs none (no motion before it).
+    """
 
     name: str
     joints_deg: tuple[float, ...] | None = None
     speed_mm_s: float = 200.0
+    camera: str | None = None
 
     def __post_init__(self) -> None:
+        if self.camera is not None:
+            from controller.geometry.view_file import camera_name_problem
+
+            problem = camera_name_problem(self.camera)
+            if problem is not None:
+                raise ConfigError(f"views.{self.name}.camera: {problem}")
         if self.joints_deg is not None:
             try:
                 check_joint_limits(irb2400(), self.joints_deg, f"views.{self.name}.joints_deg")
@@ -141,13 +153,16 @@ class Job:
         if self.weld.speed_mm_s > self.limits.max_speed_mm_s:
             raise ConfigError("weld.speed_mm_s is over limits.max_speed_mm_s")
 
-    def require_taught(self) -> None:
-        """Raise :class:`ConfigError` unless there are >= 2 views and all have joints."""
+    def require_taught(self, fixed_cameras: Collection[str] = ()) -> None:
+        """Raise :class:`ConfigError` unless >= 2 views and every view needing joints has them.
+
+        Views of the cameras in ``fixed_cameras`` (cameras fixed in the cell) need no joints.
+        """
         if len(self.views) < 2:
             raise ConfigError(f"job {self.name}: needs at least two views, has "
                               f"{len(self.views)}; teach them with `seamguide teach-view`")
         for v in self.views:
-            if v.joints_deg is None:
+            if v.joints_deg is None and v.camera not in fixed_cameras:
                 raise ConfigError(f"job {self.name}: view {v.name} has not been taught; jog the "
                                   f"robot there and run `seamguide teach-view JOB {v.name}`")
 

@@ -41,6 +41,7 @@ image (undistort with ``CameraModel.pixels_to_normalized``).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -241,25 +242,29 @@ def _check_roi(roi: Any, W: int, H: int) -> tuple[int, int, int, int]:
     return x0, y0, x1, y1
 
 
-def detect_seams(images: list[NDArray[Any]], *, camera: CameraModel | None = None,
+def detect_seams(images: list[NDArray[Any]], *,
+                 camera: CameraModel | Sequence[CameraModel] | None = None,
                  rois: list[tuple[int, int, int, int] | None] | None = None,
                  detector: Any = None) -> list[SeamDetection]:
     """:func:`detect_seam` on several views at once, one thread per view (at most 2 at a time).
 
     NumPy and OpenCV release the GIL for most of the work, so two views take about 0.6-0.8 of
     the time of one after the other on two cores. Results are in the order of ``images``; the
-    first view's error (in that order) is raised. ``detector`` replaces :func:`detect_seam`
-    (same keyword arguments ``camera`` and ``roi``), e.g. in tests.
+    first view's error (in that order) is raised. ``camera`` is one model for every view or one
+    per view (cameras with different lenses). ``detector`` replaces :func:`detect_seam` (same
+    keyword arguments ``camera`` and ``roi``), e.g. in tests.
     """
     from concurrent.futures import ThreadPoolExecutor
 
     fn = detect_seam if detector is None else detector
     rois = rois if rois is not None else [None] * len(images)
-    if len(rois) != len(images):
-        raise InputError(f"detect_seams: {len(images)} images but {len(rois)} regions of interest")
+    cams = (list(camera) if isinstance(camera, Sequence) else [camera] * len(images))
+    if len(rois) != len(images) or len(cams) != len(images):
+        raise InputError(f"detect_seams: {len(images)} images but {len(rois)} regions of interest "
+                         f"and {len(cams)} cameras")
+    jobs = list(zip(images, cams, rois, strict=True))
     if len(images) < 2:
-        return [fn(im, camera=camera, roi=r) for im, r in zip(images, rois, strict=True)]
+        return [fn(im, camera=c, roi=r) for im, c, r in jobs]
     with ThreadPoolExecutor(max_workers=2) as ex:
-        futures = [ex.submit(fn, im, camera=camera, roi=r) for im, r in zip(images, rois,
-                                                                             strict=True)]
+        futures = [ex.submit(fn, im, camera=c, roi=r) for im, c, r in jobs]
         return [f.result() for f in futures]
