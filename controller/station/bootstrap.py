@@ -30,8 +30,10 @@ def _link_stats(daemon: Any) -> tuple[int, dict[str, int]] | None:
 
 
 def _calibration_age_s(cfg: CellConfig) -> float | None:
+    """Age of the oldest camera calibration file (s); None when one cannot be read."""
     try:
-        return time.time() - Path(cfg.calibration).stat().st_mtime
+        return time.time() - min(Path(e.calibration).stat().st_mtime
+                                 for e in cfg.camera_entries().values())
     except OSError:
         return None
 
@@ -55,8 +57,10 @@ def start_station(daemon: Any, cfg: CellConfig) -> StationServer | None:
             metrics.state_changed("idle")
 
     daemon.observers.append(observe)
+    # The first camera's calibration is shown (a one-camera cell's only one).
+    first_calibration = next(iter(cfg.camera_entries().values())).calibration
     settings = StationSettings(cell=cfg.name, records_dir=cfg.records.dir,
-                               calibration_path=cfg.calibration, jobs=tuple(sorted(cfg.jobs)),
+                               calibration_path=first_calibration, jobs=tuple(sorted(cfg.jobs)),
                                max_request_bytes=cfg.http.max_request_bytes)
     app = create_app(daemon, settings, Access(tokens), metrics.exposition)
     server = StationServer(app, cfg.http.bind, cfg.http.port, cfg.http.max_request_bytes)
