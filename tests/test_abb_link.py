@@ -2,6 +2,10 @@
 retransmission, duplicates, no reply, reconnect and restart mid-path, abort during a weld, the
 difference between "link returned nothing" and "robot did not finish", and a short soak.
 
+Each test that talks to a controller runs twice (the ``scheme`` fixture): against the Python
+mock (``mock://``) and against the RAPID server module itself, run by the RAPID interpreter on
+the same fault-injected line and simulated arm (``rapid://``).
+
 No sleeps: every wait is on a reply or an event, with a timeout."""
 
 from __future__ import annotations
@@ -22,9 +26,16 @@ from controller.geometry.poses import make_pose, pose_error
 from drivers.abb import abb_codec as codec
 from drivers.abb.abb_link import AbbLink
 from drivers.mock.mock_controller import MockController
+from drivers.rapid_vm.vm_controller import RapidController
 from drivers.robot import MotionTimeout, open_robot
 
 TOOL = make_pose(t_mm=[0.0, 0.0, 300.0])
+
+
+@pytest.fixture(params=["mock", "rapid"])
+def scheme(request) -> str:
+    """The controller: the Python mock, or SGSERVER.mod in the RAPID interpreter."""
+    return request.param
 
 
 def weld_line(n: int, start=(0.0, 10.0, 0.0, 0.0, 60.0, 0.0)) -> list[np.ndarray]:
@@ -32,8 +43,8 @@ def weld_line(n: int, start=(0.0, 10.0, 0.0, 0.0, 60.0, 0.0)) -> list[np.ndarray
     return [T @ make_pose(t_mm=[0.0, 1.0 * i, 0.0]) for i in range(n)]
 
 
-def test_basic_requests_over_a_pty():
-    with open_robot("mock://?seed=2") as robot:
+def test_basic_requests_over_a_pty(scheme):
+    with open_robot(f"{scheme}://?seed=2") as robot:
         info = robot.identify()
         assert info["protocol"] == "SGRS" and info["path_capacity"] == 250
         assert np.allclose(robot.read_joints(), robot.mock.joints_deg, atol=1e-4)
@@ -44,9 +55,9 @@ def test_basic_requests_over_a_pty():
         assert np.allclose(robot.mock.joints_deg, [10, 20, 10, 0, 30, 0])
 
 
-def test_pose_sent_and_read_back_moves_the_tool_less_than_0_01_mm():
+def test_pose_sent_and_read_back_moves_the_tool_less_than_0_01_mm(scheme):
     rng = np.random.default_rng(4)
-    with open_robot("mock://") as robot:
+    with open_robot(f"{scheme}://") as robot:
         robot.set_tool(TOOL)
         assert np.allclose(robot.mock.tool, TOOL)
         for _ in range(5):
@@ -58,8 +69,8 @@ def test_pose_sent_and_read_back_moves_the_tool_less_than_0_01_mm():
             assert pose_error(T_base_tcp, robot.mock.flange_pose() @ TOOL)[0] < 0.01
 
 
-def test_lost_lines_are_retransmitted_and_nothing_runs_twice():
-    with open_robot("mock://?seed=3&drop=0.2&dup=0.2", ack_timeout_s=0.05, retries=30,
+def test_lost_lines_are_retransmitted_and_nothing_runs_twice(scheme):
+    with open_robot(f"{scheme}://?seed=3&drop=0.2&dup=0.2", ack_timeout_s=0.05, retries=30,
                     status_poll_s=0.1) as robot:
         for k in range(10):
             robot.move_joints([5.0 * k, 10, 0, 0, 30, 0], speed_mm_s=200).wait(10.0)
@@ -70,8 +81,8 @@ def test_lost_lines_are_retransmitted_and_nothing_runs_twice():
         assert robot.mock.link_stats["duplicates_suppressed"] > 0
 
 
-def test_random_disconnects_nothing_lost_nothing_twice():
-    with open_robot("mock://?seed=9&disconnect=0.1", ack_timeout_s=0.1, retries=20,
+def test_random_disconnects_nothing_lost_nothing_twice(scheme):
+    with open_robot(f"{scheme}://?seed=9&disconnect=0.1", ack_timeout_s=0.1, retries=20,
                     status_poll_s=0.2) as robot:
         for k in range(15):
             robot.move_joints([3.0 * k, 10, 0, 0, 30, 0], speed_mm_s=200).wait(10.0)
@@ -81,11 +92,11 @@ def test_random_disconnects_nothing_lost_nothing_twice():
         assert robot.mock.action_log.count("disconnect") == robot.link.stats["reconnects"]
 
 
-def test_slow_replies_are_waited_for_not_repeated():
-    with open_robot("mock://?delay_ms=200") as robot:  # ack timeout follows the mock's delay
+def test_slow_replies_are_waited_for_not_repeated(scheme):
+    with open_robot(f"{scheme}://?delay_ms=200") as robot:  # ack timeout follows the mock's delay
         robot.move_joints([10, 0, 0, 0, 30, 0], speed_mm_s=200).wait(5.0)
         assert robot.link.stats["retransmissions"] == 0
-    with open_robot("mock://?delay_ms=200", ack_timeout_s=0.05, retries=10) as robot:
+    with open_robot(f"{scheme}://?delay_ms=200", ack_timeout_s=0.05, retries=10) as robot:
         robot.move_joints([10, 0, 0, 0, 30, 0], speed_mm_s=200).wait(5.0)
         assert robot.link.stats["retransmissions"] > 0  # too impatient: repeats, answered from
         assert len(robot.mock.executed) == 1            # memory, never executed twice
@@ -107,8 +118,8 @@ def test_unopenable_port_is_a_link_error(tmp_path):
         open_robot(str(tmp_path / "nope")).open()
 
 
-def test_motion_timeout_is_not_a_link_error_and_abort_stops_it():
-    with open_robot("mock://?time_scale=1") as robot:
+def test_motion_timeout_is_not_a_link_error_and_abort_stops_it(scheme):
+    with open_robot(f"{scheme}://?time_scale=1") as robot:
         h = robot.move_joints([90, 0, 0, 0, 30, 0], speed_mm_s=5)  # ~1 s of motion
         with pytest.raises(MotionTimeout, match="did not finish"):
             h.wait(0.2)
@@ -121,8 +132,8 @@ def test_motion_timeout_is_not_a_link_error_and_abort_stops_it():
         assert robot.mock.action_log[-2:] == ["arc_off", "stop"]
 
 
-def test_abort_from_another_thread_during_a_weld_arc_off_first():
-    with open_robot("mock://?time_scale=1") as robot:
+def test_abort_from_another_thread_during_a_weld_arc_off_first(scheme):
+    with open_robot(f"{scheme}://?time_scale=1") as robot:
         robot.set_tool(TOOL)
         path = weld_line(40)
         robot.move_linear(path[0], speed_mm_s=200).wait(5.0)
@@ -152,8 +163,8 @@ def test_abort_from_another_thread_during_a_weld_arc_off_first():
         assert h.progress < 39
 
 
-def test_weld_progress_and_fault_at_point_n():
-    with open_robot("mock://?fail_at_point=30") as robot:
+def test_weld_progress_and_fault_at_point_n(scheme):
+    with open_robot(f"{scheme}://?fail_at_point=30") as robot:
         robot.set_tool(TOOL)
         path = weld_line(50)
         robot.move_linear(path[0], speed_mm_s=200).wait(5.0)
@@ -168,10 +179,10 @@ def test_weld_progress_and_fault_at_point_n():
         assert kinds.count("weld") == 1
 
 
-def test_path_orientations_arrive_whether_repeated_or_not():
+def test_path_orientations_arrive_whether_repeated_or_not(scheme):
     from controller.geometry.poses import rotation_about
 
-    with open_robot("mock://") as robot:
+    with open_robot(f"{scheme}://") as robot:
         robot.set_tool(TOOL)
         base = weld_line(1)[0]
         path = [base @ make_pose(t_mm=[0.0, 2.0 * i, 0.0]) for i in range(10)]
@@ -206,6 +217,36 @@ class DropAt(MockController):
         self.server.handlers["XP"] = nasty_xp
 
 
+class RapidDropAt(RapidController):
+    """The same nasty thing for SGSERVER.mod in the interpreter, seen on the line (its thread)."""
+
+    def __init__(self, at: int, what: str, **kw) -> None:
+        super().__init__(**kw)
+        self.at, self.what, self.fired = at, what, False
+        self.lose_reply = False
+        self.on_request, self.on_reply = self._nasty_request, self._nasty_reply
+
+    def _nasty_request(self, line: bytes) -> None:
+        if not self.fired and line[4:].startswith(f"XP {self.at} ".encode()):
+            self.fired = True
+            if self.what == "disconnect":
+                self.lose_reply = True  # its reply, when the program writes it, is lost
+            else:
+                self.program.globals["sgtool"] = RapidController().program.globals["sgtool"]
+                self.restart()  # and someone edited the tool on the pendant (PERS kept)
+
+    def _nasty_reply(self, data: bytes) -> bool:
+        if self.lose_reply and data.startswith(b"A"):
+            self.lose_reply = False
+            self.disconnect(wait=False)
+            return True
+        return False
+
+
+def drop_at(scheme: str, at: int, what: str):
+    return DropAt(at, what) if scheme == "mock" else RapidDropAt(at, what)
+
+
 def _robot_on(mock: MockController, **kw):
     path = mock.serve_pty()
     robot = open_robot(path, ack_timeout_s=0.1, status_poll_s=0.3, **kw)
@@ -214,8 +255,8 @@ def _robot_on(mock: MockController, **kw):
     return robot
 
 
-def test_reconnect_mid_path_resumes_without_replaying():
-    mock = DropAt(50, "disconnect")
+def test_reconnect_mid_path_resumes_without_replaying(scheme):
+    mock = drop_at(scheme, 50, "disconnect")
     with _robot_on(mock) as robot:
         robot.set_tool(TOOL)
         path = weld_line(100)
@@ -231,8 +272,8 @@ def test_reconnect_mid_path_resumes_without_replaying():
             "move_linear", "weld"]
 
 
-def test_controller_restart_mid_path_is_reported_and_nothing_replayed():
-    mock = DropAt(50, "restart")
+def test_controller_restart_mid_path_is_reported_and_nothing_replayed(scheme):
+    mock = drop_at(scheme, 50, "restart")
     with _robot_on(mock) as robot:
         robot.set_tool(TOOL)
         path = weld_line(100)
@@ -250,23 +291,28 @@ def test_controller_restart_mid_path_is_reported_and_nothing_replayed():
         assert [e["kind"] for e in mock.executed] == ["move_linear", "weld"]
 
 
-def test_lost_completion_event_is_recovered_from_status():
-    mock = MockController()
-    send = mock.line.send
+def test_lost_completion_event_is_recovered_from_status(scheme):
+    mock: MockController | RapidController
+    if scheme == "mock":
+        mock = MockController()
+        send = mock.line.send
 
-    def lose_in_position(kind, seq, body, delay_s=0.0):
-        if not (kind == "E" and body.startswith("IP")):  # swallowed; its event number is spent
-            send(kind, seq, body, delay_s)
+        def lose_in_position(kind, seq, body, delay_s=0.0):
+            if not (kind == "E" and body.startswith("IP")):  # swallowed; its number is spent
+                send(kind, seq, body, delay_s)
 
-    mock.line.send = lose_in_position
+        mock.line.send = lose_in_position
+    else:
+        mock = RapidController()
+        mock.on_reply = lambda data: data.startswith(b"E") and data[4:6] == b"IP"
     with _robot_on(mock) as robot:
         h = robot.move_joints([10, 0, 0, 0, 30, 0], speed_mm_s=200)
         h.wait(5.0)
         assert h.state == "done"
 
 
-def test_safety_checks_happen_before_any_byte():
-    with open_robot("mock://") as robot:
+def test_safety_checks_happen_before_any_byte(scheme):
+    with open_robot(f"{scheme}://") as robot:
         robot.set_tool(TOOL)
         path = weld_line(5)
         path[2] = path[2] @ make_pose(t_mm=[0.0, 0.0, -5000.0])
@@ -322,9 +368,9 @@ def _soak_module():
     return mod
 
 
-def test_short_soak_nothing_lost_nothing_twice():
+def test_short_soak_nothing_lost_nothing_twice(scheme):
     r = _soak_module().run_soak(requests=300, corrupt=0.02, drop=0.01, dup=0.01, seed=11,
-                                ack_timeout_s=0.03)
+                                ack_timeout_s=0.03, backend=scheme)
     assert r["requests"] >= 300 and r["motions_accepted"] >= 15
     assert r["lost"] == 0 and r["executed_twice"] == 0 and r["unreported"] == 0
     assert r["wrong_position"] == 0

@@ -183,9 +183,8 @@ class Machine:
         dur = max(d_mm / max(speed.f["v_tcp"], 1e-6), d_deg / 90.0)
         if self.weld_move:
             self.weld_move += 1
-        token = self.arm.move("move_linear", j1, T1, dur)
-        if self.fail_at_point is not None and self.weld_move - 1 == self.fail_at_point:
-            self.arm.fail_token = token
+        fail = self.fail_at_point is not None and self.weld_move - 1 == self.fail_at_point
+        token = self.arm.move("move_linear", j1, T1, dur, fail)
         if o.get("conc"):
             return
         self.arm.wait(token, "done" if zone.f["finep"] else "started", self.alive)

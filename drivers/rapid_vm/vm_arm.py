@@ -39,8 +39,7 @@ class VmArm(MockArm):
         self._faulted = 0  # a token: the segment that failed (0 none)
         self._cond = threading.Condition(schedule.lock)
         self.notify = self._on_arm_event
-        #: Ends the segment to this token with a fault (set by the controller; 0: never).
-        self.fail_token = 0
+        self.fail_token = 0  # the segment that ends in a fault (0: none)
 
     def _on_arm_event(self, kind: str, token: int, *rest: Any) -> None:
         if kind == "IP":
@@ -64,11 +63,17 @@ class VmArm(MockArm):
         self.start(token, kind, [seg], None)()
         self.executed.pop()  # the arm's own log of motions: the controller keeps the real one
 
-    def move(self, kind: str, j1: np.ndarray, T1: np.ndarray, dur: float) -> int:
-        """Queue a segment (``move_joints`` / ``move_linear``); its token."""
+    def move(self, kind: str, j1: np.ndarray, T1: np.ndarray, dur: float,
+             fail: bool = False) -> int:
+        """Queue a segment (``move_joints`` / ``move_linear``); its token.
+
+        ``fail``: the robot stops with a fault on its way to this segment's end.
+        """
         with self._cond:
             self._issued += 1
             token = self._issued
+            if fail:
+                self.fail_token = token
             self._queue.append((token, kind, (j1, T1, dur), False))
             self._start_next()
             return token
