@@ -180,3 +180,20 @@ def test_the_mock_and_the_rapid_program_give_the_same_replies():
             ctl.stop()
     diffs = [(req, m, r) for req, m, r in zip(DIFFERENTIAL, *answers, strict=True) if m != r]
     assert diffs == [], "\n".join(map(str, diffs))
+
+
+def test_an_aborted_move_is_reported_at_point_0_by_both():
+    # a move is not a path: FL mid 41 0 (protocol, section 4); the mock said 1 before
+    from drivers.mock.mock_controller import MockController
+
+    events = []
+    for ctl in (MockController(time_scale=1.0), RapidController(time_scale=1.0)):
+        with served(ctl) as raw:
+            raw.ask("HI 7")
+            raw.ask("SV 5 0")
+            assert raw.ask("MJ 9 90 0 0 0 30 0") == "OK 9"  # about 1 s of motion
+            assert raw.ask("ST").split()[1:5] == ["1", "0", "9", "R"]
+            raw.port.write(codec.encode_frame("Q", 99, "AB"))
+            lines = [raw.line(), raw.line()]
+            events.append(sorted(f"{f.kind} {f.body}" for f in lines))
+    assert events[0] == events[1] == ["A OK", "E FL 9 41 0"]

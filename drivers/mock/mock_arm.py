@@ -202,7 +202,8 @@ class MockArm:
         if m is not None:
             self._joints = self.current()[0]
             self._finish(m, "A", 41, "aborted")
-            self.notify("FL", m["mid"], 41, m["index"] + 1)
+            # the path point it stopped before; 0 for a move that is not a path (protocol)
+            self.notify("FL", m["mid"], 41, m["index"] + 1 if m["kind"] == "weld" else 0)
 
     def restart(self) -> None:
         """A controller restart: arc off, the motion stopped where it is, then :meth:`reset`."""
