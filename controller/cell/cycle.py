@@ -177,6 +177,11 @@ class WeldCycle:
         self._make_safe(move_to_safe_pose=False)
 
     # ------------------------------------------------------------------ public
+    @property
+    def motions_before_weld(self) -> int:
+        """Robot motions this cycle commanded before welding (moves to views)."""
+        return self._motions
+
     def request_abort(self, reason: str = "operator abort") -> None:
         """Abort from any thread: the arc goes off and motion stops now; the cycle then ends."""
         self._abort_reason = reason

@@ -5,11 +5,16 @@ robot; the simulated camera renders the workpiece from the pose the mock robot i
 (its flange pose times the cell's *true* hand-eye transform). The job's view poses are "taught" by
 inverse kinematics of two views suggested for the scene. Because the simulator knows the truth,
 the summary reports the 3D error of the located seam and of the weld path.
+
+``cell="fixed-stereo"`` runs the first published cell instead: two fixed cameras with different
+lenses on stands (:mod:`drivers.sim.sim_fixed_cell`), each with its own calibration; their views
+are captured together with no robot motion, and the mock robot only welds.
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,7 +24,7 @@ import numpy as np
 from calibration.calibration_file import Calibration, load_calibration
 from controller.cell.cycle import CycleResult, WeldCycle
 from controller.cell.job import Job, job_from_dict
-from controller.errors import ReachabilityError
+from controller.errors import ConfigError, ReachabilityError
 from controller.geometry.kinematics import inverse_kinematics, irb2400
 from controller.geometry.poses import invert, make_pose, rotation_about
 from controller.stereo.triangulate import PolylineDistance
@@ -30,6 +35,9 @@ log = logging.getLogger(__name__)
 #: The IK branch the view poses are taken near, and the safe pose after a fault: the mock
 #: controller's home.
 HOME_JOINTS_DEG: tuple[float, ...] = tuple(float(v) for v in MOCK_HOME_DEG)
+
+#: The simulated cells: one camera on the wrist, or two fixed cameras with different lenses.
+CELLS = ("wrist", "fixed-stereo")
 
 
 @dataclass
@@ -46,6 +54,8 @@ class DryRunReport:
     path_max_mm: float | None = None
     coverage: float | None = None
     arc_on_after: bool | None = None
+    cell: str = "wrist"
+    motions_before_weld: int | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -78,22 +88,30 @@ def view_joints(scene: Any, cell: Any, n: int = 2, near: tuple[float, ...] = HOM
     return out
 
 
-def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False) -> Job:
-    """A job for the simulated scene: the views, the nominal seam region and normal, defaults."""
+def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False,
+                views: list[dict[str, Any]] | None = None,
+                timeouts: dict[str, float] | None = None) -> Job:
+    """A job for the simulated scene: the views, the nominal seam region and normal, defaults.
+
+    ``views`` replaces the views made from ``joints`` (e.g. fixed cameras' views by name).
+    """
     region = scene.nominal_region()
     # A job's nominal region comes from a drawing or a rough teach, not from the truth: shift the
     # centre by a few millimetres and widen the radius accordingly.
     rng = np.random.default_rng(scene.seed)
     centre = np.asarray(region["centre_mm"], dtype=np.float64) + rng.uniform(-5.0, 5.0, 3)
-    data = {
+    data: dict[str, Any] = {
         "name": f"dry-run-{scene.kind}",
-        "views": [{"name": f"view{i + 1}", "joints_deg": [round(float(v), 4) for v in j]}
-                  for i, j in enumerate(joints)],
+        "views": views if views is not None else [
+            {"name": f"view{i + 1}", "joints_deg": [round(float(v), 4) for v in j]}
+            for i, j in enumerate(joints)],
         "seam": {"nominal_centre_mm": [round(float(v), 3) for v in centre],
                  "nominal_radius_mm": float(region["radius_mm"]) + 20.0,
                  "normal": [round(float(v), 6) for v in scene.surface_normal]},
         "weld": {"confirm": confirm},
     }
+    if timeouts:
+        data["timeouts"] = timeouts
     return job_from_dict(data, "<dry-run job>")
 
 
@@ -120,28 +138,68 @@ class SimRig:
     """
 
     def __init__(self, *, scene_kind: str = "s_curve", seed: int = 1, difficulty: str = "medium",
-                 calibration: str | Path | Calibration | None = None, robot_options: str = "",
-                 camera_options: str = "", speedup: float = 50.0, confirm: bool = False,
-                 n_views: int = 2) -> None:
+                 calibration: str | Path | Calibration | Mapping[str, Any] | None = None,
+                 robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
+                 confirm: bool = False, n_views: int = 2, cell: str = "wrist") -> None:
         from drivers.sim.sim_cell import default_sim_cell
         from drivers.sim.sim_scene import make_scene
 
+        if cell not in CELLS:
+            raise ConfigError(f"unknown simulated cell {cell!r}; known: {', '.join(CELLS)}")
         self.scene = make_scene(scene_kind, seed, difficulty)
         self.seed = seed
+        self.cell_kind = cell
         self.cell = default_sim_cell()
-        if isinstance(calibration, Calibration):
+        self.fixed: Any = None
+        # One Calibration (wrist cell), or one per camera name (fixed-stereo cell).
+        self.calibration: Any = None
+        if cell == "fixed-stereo":
+            self._fixed_stereo(calibration, confirm)
+        elif isinstance(calibration, Mapping):
+            raise ConfigError("the wrist-camera dry run takes one calibration, not one per "
+                              "camera (that is --cell fixed-stereo)")
+        elif isinstance(calibration, Calibration):
             self.calibration = calibration
         elif calibration is not None:
             self.calibration = load_calibration(calibration)
         else:
             self.calibration = Calibration(self.cell.camera, self.cell.T_flange_cam,
                                            metadata={"source": "exact simulated cell"})
-        self.job = dry_run_job(self.scene, view_joints(self.scene, self.cell, n_views), confirm)
+        if self.fixed is None:
+            self.job = dry_run_job(self.scene, view_joints(self.scene, self.cell, n_views),
+                                   confirm)
         self.robot_url = f"mock://?seed={seed}&time_scale={1.0 / speedup:g}" + (
             f"&{robot_options}" if robot_options else "")
         self.camera_url = f"sim:?seed={seed}" + (f"&{camera_options}" if camera_options else "")
         self.robot: Any = None
         self.camera: Any = None
+
+    def _fixed_stereo(self, calibration: Any, confirm: bool) -> None:
+        """The fixed-stereo cell: stands for the scene, exact (or given) calibrations, the job."""
+        from drivers.sim.sim_fixed_cell import fixed_stereo_cell
+
+        self.fixed = fixed_stereo_cell(self.scene)
+        given = dict(calibration) if isinstance(calibration, Mapping) else {}
+        if calibration is not None and not isinstance(calibration, Mapping):
+            raise ConfigError("the fixed-stereo dry run takes one calibration per camera "
+                              f"({', '.join(self.fixed.cameras)}), e.g. left=cam_left.yaml")
+        unknown = sorted(set(given) - set(self.fixed.cameras))
+        if unknown:
+            raise ConfigError(f"the fixed-stereo cell has no camera {unknown[0]!r} (cameras: "
+                              f"{', '.join(self.fixed.cameras)})")
+        calibs: dict[str, Calibration] = {}
+        for name, cam in self.fixed.cameras.items():
+            c = given.get(name)
+            calibs[name] = (
+                c if isinstance(c, Calibration) else load_calibration(c) if c is not None else
+                Calibration(cam, T_base_cam=self.fixed.T_base_cam[name],
+                            metadata={"source": "exact simulated fixed-stereo cell"}))
+        self.calibration = calibs
+        # The simulated cameras render their first frames (with their undistortion maps) in
+        # parallel in 10-25 s on the 2-core machine; a real camera delivers in milliseconds.
+        self.job = dry_run_job(self.scene, [], confirm, views=[
+            {"name": name, "camera": name} for name in self.fixed.cameras],
+            timeouts={"capture_s": 120.0})
 
     def __enter__(self) -> SimRig:
         from drivers.cameras import open_camera
@@ -152,6 +210,15 @@ class SimRig:
             workspace_min_mm=lim.workspace_min_mm, workspace_max_mm=lim.workspace_max_mm,
             max_speed_mm_s=lim.max_speed_mm_s))
         self.robot.open()
+        if self.fixed is not None:
+            from drivers.camera_sync import CameraSet
+
+            self.camera = CameraSet({
+                name: open_camera(f"sim:?seed={self.seed + 7 * i}", scene=self.scene,
+                                  camera_model=cam,
+                                  pose_source=lambda T=self.fixed.T_base_cam[name]: T)
+                for i, (name, cam) in enumerate(self.fixed.cameras.items())})
+            return self
         mock, he = self.robot.mock, self.cell.T_flange_cam
         self.camera = open_camera(self.camera_url, scene=self.scene, camera_model=self.cell.camera,
                                   pose_source=lambda: mock.flange_pose() @ he)
@@ -178,7 +245,8 @@ class SimRig:
     def report(self, result: CycleResult, cycle: WeldCycle | None = None) -> DryRunReport:
         """Compare a finished cycle with the simulator's truth."""
         rep = DryRunReport(result, self.scene.kind, self.seed, self.scene.difficulty,
-                           arc_on_after=bool(self.mock.arc_on))
+                           arc_on_after=bool(self.mock.arc_on), cell=self.cell_kind,
+                           motions_before_weld=None if cycle is None else cycle.motions_before_weld)
         if result.seam is not None and result.path is not None:
             weld = result.path.weld_targets
             errs = truth_errors(result.seam.dense_points_mm,
@@ -195,19 +263,21 @@ class SimRig:
 
 
 def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_curve",
-                seed: int = 1, difficulty: str = "medium", calibration: str | Path | None = None,
+                seed: int = 1, difficulty: str = "medium",
+                calibration: str | Path | Mapping[str, Any] | None = None,
                 robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
-                confirm: bool = False, n_views: int = 2) -> DryRunReport:
+                confirm: bool = False, n_views: int = 2, cell: str = "wrist") -> DryRunReport:
     """Run one cycle in the simulated cell; the record goes under ``output`` (None: no record).
 
     ``calibration`` is a calibration file to use instead of the cell's exact one (e.g. from a
     simulated teach session). ``robot_options`` / ``camera_options`` are extra URL query options
     (fault injection, e.g. ``drop=0.01&corrupt=0.02``). ``speedup`` runs simulated motion that
-    many times faster than real time.
+    many times faster than real time. ``cell``: ``wrist`` (one camera on the flange, two views)
+    or ``fixed-stereo`` (two fixed cameras; ``calibration`` then maps camera names to files).
     """
     rig = SimRig(scene_kind=scene_kind, seed=seed, difficulty=difficulty, calibration=calibration,
                  robot_options=robot_options, camera_options=camera_options, speedup=speedup,
-                 confirm=confirm, n_views=n_views)
+                 confirm=confirm, n_views=n_views, cell=cell)
     with rig:
         cycle = rig.cycle(output)
         result = cycle.run()
@@ -217,7 +287,8 @@ def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_c
 def summary_text(rep: DryRunReport) -> str:
     """A short human summary: states and times, seam length, weld points, errors vs truth."""
     r = rep.result
-    lines = [f"dry run: scene {rep.scene_kind} (seed {rep.seed}, {rep.difficulty}) -> "
+    cell = f"{rep.cell} cell, " if rep.cell != "wrist" else ""
+    lines = [f"dry run: {cell}scene {rep.scene_kind} (seed {rep.seed}, {rep.difficulty}) -> "
              f"{r.status.upper()}" + (f": {r.reason}" if r.reason else "")]
     hist = r.state_history
     for (name, t0), nxt in zip(hist, [*hist[1:], None], strict=True):
@@ -233,6 +304,10 @@ def summary_text(rep: DryRunReport) -> str:
         lines.append(f"  error vs truth: seam {rep.seam_rms_mm:.3f} mm RMS / "
                      f"{rep.seam_max_mm:.3f} mm max; weld path {rep.path_rms_mm:.3f} mm RMS / "
                      f"{rep.path_max_mm:.3f} mm max")
+    if r.capture_skews_s:
+        lines.append("  views captured together, trigger skew "
+                     + ", ".join(f"{1000 * s:.2f} ms" for s in r.capture_skews_s)
+                     + f"; robot motions before the weld: {rep.motions_before_weld}")
     lines.append(f"  arc after the cycle: {'ON' if rep.arc_on_after else 'off'}")
     if r.record_path is not None:
         lines.append(f"  record: {r.record_path}")

@@ -27,7 +27,12 @@ def register(sub: Any) -> None:
                    choices=["straight", "arc", "s_curve", "nonplanar"], help="seam shape")
     p.add_argument("--seed", type=int, default=1, help="scene seed (default 1)")
     p.add_argument("--difficulty", default="medium", choices=["easy", "medium", "hard"])
-    p.add_argument("--calibration", help="use this calibration file instead of the exact one")
+    p.add_argument("--calibration", action="append", metavar="[CAMERA=]FILE",
+                   help="use this calibration file instead of the exact one (fixed-stereo: "
+                   "CAMERA=FILE per camera, left and right)")
+    p.add_argument("--cell", default="wrist", choices=["wrist", "fixed-stereo"],
+                   help="wrist: one camera on the flange, two views (default); fixed-stereo: "
+                   "two fixed cameras with different lenses, the robot only welds")
     p.add_argument("--robot-options", default="", help="mock URL options, e.g. "
                    "'drop=0.01&corrupt=0.02' (fault injection)")
     p.add_argument("--camera-options", default="", help="simulated camera URL options")
@@ -67,10 +72,15 @@ def register(sub: Any) -> None:
 def _dry_run(args: argparse.Namespace) -> int:
     from controller.cell.dry_run import run_dry_run, summary_text
 
+    calibration: Any = None
+    if args.calibration:
+        given = parse_calibration_args(args.calibration)
+        # One unnamed file (the wrist cell), or CAMERA=FILE per camera (fixed-stereo).
+        calibration = given.pop(None, None) or given
     rep = run_dry_run(args.output, scene_kind=args.scene, seed=args.seed,
-                      difficulty=args.difficulty, calibration=args.calibration,
+                      difficulty=args.difficulty, calibration=calibration,
                       robot_options=args.robot_options, camera_options=args.camera_options,
-                      speedup=args.speedup)
+                      speedup=args.speedup, cell=args.cell)
     print(summary_text(rep), file=sys.stderr)
     if args.json:
         r = rep.result
@@ -78,7 +88,9 @@ def _dry_run(args: argparse.Namespace) -> int:
                    "record": str(r.record_path) if r.record_path else None,
                    "seam_rms_mm": rep.seam_rms_mm, "seam_max_mm": rep.seam_max_mm,
                    "path_rms_mm": rep.path_rms_mm, "path_max_mm": rep.path_max_mm,
-                   "states": [s for s, _ in r.state_history]}, None)
+                   "states": [s for s, _ in r.state_history], "cell": rep.cell,
+                   "robot_motions_before_weld": rep.motions_before_weld,
+                   "capture_skew_ms": [round(1000 * s, 3) for s in r.capture_skews_s]}, None)
     if rep.result.ok:
         return 0
     err = rep.result.error
