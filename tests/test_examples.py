@@ -72,3 +72,75 @@ def test_views_rolled_alike_are_warned_about(tmp_path):
     job.write_text(text)
     report = check_config(tmp_path / "sim-cell.toml")
     assert any(line.startswith("WARNING job demo") and "roll" in line for line in report)
+
+
+def test_fixed_stereo_example_is_the_simulated_cell():
+    from drivers.sim.sim_fixed_cell import fixed_stereo_cell
+
+    cfg = load_cell_config(EXAMPLES / "fixed-stereo-cell.toml")
+    scene = make_scene(cfg.sim.scene, cfg.sim.seed, cfg.sim.difficulty)
+    cell = fixed_stereo_cell(scene)
+    assert set(cfg.cameras) == set(cell.cameras) == {"left", "right"}
+    for name, entry in cfg.cameras.items():
+        calib = load_calibration(entry.calibration)
+        assert np.allclose(calib.camera.K, cell.cameras[name].K)
+        assert np.allclose(calib.camera.dist, cell.cameras[name].dist)
+        assert calib.T_flange_cam is None
+        d_mm, d_deg = pose_error(calib.T_base_cam, cell.T_base_cam[name])
+        assert d_mm < 1e-6 and d_deg < 1e-6
+    job = load_job(EXAMPLES / "fixed-stereo-job.toml")
+    assert [v.camera for v in job.views] == ["left", "right"]
+    dist = np.linalg.norm(scene.seam_points_mm - np.asarray(job.seam.nominal_centre_mm), axis=1)
+    assert dist.max() < job.seam.nominal_radius_mm
+    report = check_config(EXAMPLES / "fixed-stereo-cell.toml")
+    assert any("job fixed-demo" in line and "2 of fixed cameras" in line for line in report)
+    assert not any(line.startswith("WARNING") for line in report)
+
+
+def _fixed_copy(tmp_path, job_text):
+    import shutil
+
+    for name in ("fixed-stereo-cell.toml", "cam_left.yaml", "cam_right.yaml",
+                 "fixed-stereo-job.toml"):
+        shutil.copy(EXAMPLES / name, tmp_path / name)
+    job = tmp_path / "fixed-stereo-job.toml"
+    job.write_text(job_text(job.read_text()))
+    return tmp_path / "fixed-stereo-cell.toml"
+
+
+def test_check_config_names_job_view_and_camera(tmp_path):
+    import pytest
+
+    from controller.errors import ConfigError
+
+    cell = _fixed_copy(tmp_path, lambda t: t.replace('camera = "right"', 'camera = "middle"'))
+    with pytest.raises(ConfigError) as info:
+        check_config(cell)
+    msg = str(info.value)
+    assert "job fixed-demo: view right: camera 'middle' is not a camera of this cell" in msg
+    assert "cameras: left, right" in msg
+    cell = _fixed_copy(tmp_path, lambda t: t.replace('camera = "left"\n', ''))
+    with pytest.raises(ConfigError, match="job fixed-demo: view left does not name its camera"):
+        check_config(cell)
+    cell = _fixed_copy(tmp_path, lambda t: t.replace('camera = "left"', 'camera = "no good"'))
+    with pytest.raises(ConfigError, match=r"views.left.camera: a camera name must be"):
+        check_config(cell)
+
+
+def test_cell_config_cameras_errors(tmp_path):
+    import pytest
+
+    from controller.errors import ConfigError
+
+    base = (EXAMPLES / "fixed-stereo-cell.toml").read_text()
+    bad = {
+        "both": base.replace("[cameras.left]", '[camera]\nurl = "sim:"\n\n[cameras.left]'),
+        "key": base.replace('calibration = "cam_left.yaml"', 'calib = "cam_left.yaml"'),
+        "none": base.split("[cameras.left]")[0] + "[sim]" + base.split("[sim]")[1],
+    }
+    expect = {"both": "not both", "key": "cameras.left.calib", "none": "camera: missing"}
+    for k, text in bad.items():
+        p = tmp_path / f"{k}.toml"
+        p.write_text(text)
+        with pytest.raises(ConfigError, match=expect[k]):
+            load_cell_config(p)
