@@ -12,7 +12,8 @@ the ``wide`` set (wide-look scenes, drivers/sim/sim_look.py) as pairs of views, 
 difficulty on the held-out part and 50 on the tuning part (every view also counts as a single
 view: 200 and 100 views); the ``pen`` set (1-3 lines parallel to the joint), 25 pairs (50 views)
 per part. ``--quick``: 8 classic views, 10 wide pairs per difficulty and part, 6 pen pairs.
-Renders are cached under bench/cache/detect/ (git-ignored), rendered by a pool of ``--jobs``
+Renders are cached under bench/cache/detect/ (git-ignored; ``SEAMGUIDE_DETECT_CACHE=DIR`` uses
+another folder, e.g. another worktree's cache), rendered by a pool of ``--jobs``
 processes (about 1.5-3 s per 2272x1704 image on an idle machine, several times that when it is
 shared).
 

@@ -20,6 +20,7 @@ the simulator changes what it draws.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +33,10 @@ from drivers.sim.sim_look import seeds_in
 from drivers.sim.sim_render import render, suggest_view_poses
 from drivers.sim.sim_scene import DIFFICULTIES, KINDS, make_scene
 
-CACHE = Path(__file__).resolve().parent / "cache" / "detect"
+#: Where renders are cached; the environment variable SEAMGUIDE_DETECT_CACHE points elsewhere (one
+#: worktree can use another's renders: rendering the full set takes an hour or more here).
+CACHE = Path(os.environ.get("SEAMGUIDE_DETECT_CACHE",
+                            Path(__file__).resolve().parent / "cache" / "detect"))
 CACHE_TAG = "v2"
 #: First seed of each set (disjoint seed ranges, then split by sim_look.split_of).
 SEED_START = {"wide": 10000, "pen": 50000}
@@ -79,10 +83,10 @@ def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],
 
 def render_order(groups: dict[str, list[Case]]
                  ) -> list[Case]:
-    """All cases, the groups interleaved in proportion to their sizes (a run stopped early has
-    every group done to about the same share)."""
-    keyed = [((i + 0.5) / len(g), k, c) for k, g in enumerate(groups.values())
-             for i, c in enumerate(g)]
+    """All cases, the groups interleaved in proportion to their sizes, held-out groups at twice
+    the pace of the others (a run stopped early has the held-out part furthest along)."""
+    keyed = [((i + 0.5) / len(g) / (2.0 if key.endswith("heldout") else 1.0), k, c)
+             for k, (key, g) in enumerate(groups.items()) for i, c in enumerate(g)]
     return [c for _, _, c in sorted(keyed)]
 
 
