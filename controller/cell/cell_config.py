@@ -258,8 +258,9 @@ def check_config(path: str | os.PathLike[str]) -> list[str]:
     for name in sorted(cfg.jobs):
         job = cfg.job(name)
         taught = sum(v.joints_deg is not None for v in job.views)
-        fixed = sum(calibs.get(v.camera or "", None) is not None
-                    and calibs[v.camera or ""].T_base_cam is not None for v in job.views)
+        one = next(iter(calibs)) if len(calibs) == 1 else ""
+        fixed = sum(getattr(calibs.get(v.camera or one), "T_base_cam", None) is not None
+                    for v in job.views)
         lines.append(f"job {name}: {cfg.jobs[name]}: {len(job.views)} views ({taught} taught"
                      + (f", {fixed} of fixed cameras)" if fixed else ")"))
         found = view_camera_problems(job, calibs)
