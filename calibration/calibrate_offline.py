@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import datetime as _dt
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -12,8 +12,8 @@ from numpy.typing import NDArray
 
 from calibration.calibration_file import Calibration
 from calibration.intrinsics import solve_intrinsics
-from calibration.solve_views import _plain, solve_views
-from calibration.targets import BoardSpec, Detection, detect_board, parse_board_spec
+from calibration.solve_views import _first_reasons, _plain, solve_views
+from calibration.targets import BoardSpec, Detection, detect_board_explained, parse_board_spec
 from calibration.teach_progress import ViewRecord
 from controller.errors import CalibrationError, InputError
 
@@ -30,7 +30,8 @@ def read_image(path: str | Path) -> NDArray[np.uint8]:
 
 
 def calibrate_images(paths: Sequence[str | Path], board_spec: str | BoardSpec, *,
-                     camera_name: str = "seam_cam") -> tuple[Calibration, dict[str, Any]]:
+                     camera_name: str = "seam_cam", log: Callable[[str], None] | None = None
+                     ) -> tuple[Calibration, dict[str, Any]]:
     """Intrinsics only from images of a board; a :class:`Calibration` without hand-eye.
 
     Raises :class:`InputError` for no images, unreadable images or images of different sizes,
@@ -42,6 +43,7 @@ def calibrate_images(paths: Sequence[str | Path], board_spec: str | BoardSpec, *
     dets: list[Detection] = []
     names: list[str] = []
     missing: list[str] = []
+    why: dict[str, str] = {}
     size: tuple[int, int] | None = None
     for p in sorted(str(x) for x in paths):
         img = read_image(p)
@@ -50,9 +52,12 @@ def calibrate_images(paths: Sequence[str | Path], board_spec: str | BoardSpec, *
             raise InputError(f"image {p} is {s[0]}x{s[1]} but the first was {size[0]}x{size[1]}: "
                              f"all images must come from one camera at one resolution", file=p)
         size = s
-        d = detect_board(img, board)
+        d, reason = detect_board_explained(img, board)
         if d is None:
             missing.append(Path(p).name)
+            why[Path(p).name] = reason
+            if log is not None:
+                log(f"{Path(p).name}: NOT USED: {reason}")
         else:
             dets.append(d)
             names.append(Path(p).name)
@@ -61,12 +66,12 @@ def calibrate_images(paths: Sequence[str | Path], board_spec: str | BoardSpec, *
         raise CalibrationError(
             f"the board {board.spec} was found in only {len(dets)} of {len(paths)} images"
             f"{' (not in ' + ', '.join(missing) + ')' if missing else ''}; need at least 4: check "
-            f"the board spec (inner corners for a chessboard) and that the whole board is in view",
-            images_without_board=missing)
+            f"the board spec (inner corners for a chessboard) and that the whole board is in view"
+            f"{_first_reasons(why)}", images_without_board=missing, why_no_board=why)
     intr = solve_intrinsics([d.image_points for d in dets], [d.object_points for d in dets],
                             size, names=names, camera_name=camera_name)
     report = {"board": board.spec, "images_total": len(paths), "images_without_board": missing,
-              "intrinsics": intr.report()}
+              "why_no_board": why, "intrinsics": intr.report()}
     meta = _plain({"date": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
                    "tool": "seamguide calibrate --images", "board": board.spec,
                    "intrinsics_rms_px": round(float(intr.rms_px), 4),
@@ -75,9 +80,12 @@ def calibrate_images(paths: Sequence[str | Path], board_spec: str | BoardSpec, *
     return Calibration(intr.camera, metadata=meta), report
 
 
-def load_view_records(folder: str | Path, board: BoardSpec) -> tuple[list[ViewRecord],
-                                                                     tuple[int, int]]:
+def load_view_records(folder: str | Path, board: BoardSpec,
+                      log: Callable[[str], None] | None = None
+                      ) -> tuple[list[ViewRecord], tuple[int, int]]:
     """Read every ``*.json`` view file in ``folder`` (sorted), its image, and detect the board.
+
+    ``log`` (e.g. a line to stderr) gets one line per view: the board found, or why not.
 
     Raises :class:`InputError` when the folder has no view files, a view file is malformed (naming
     it and the key), a view gives ``camera_pose`` (hand-eye needs the robot's flange pose or
@@ -90,7 +98,7 @@ def load_view_records(folder: str | Path, board: BoardSpec) -> tuple[list[ViewRe
         raise InputError(f"folder {folder} holds no view files (*.json); each image needs one "
                          f"with \"image\" and \"flange_pose\" or \"joints_deg\" "
                          f"(docs/calibration.md)", folder=str(folder))
-    records = []
+    records: list[ViewRecord] = []
     size: tuple[int, int] | None = None
     for f in files:
         view = load_view(f)
@@ -104,8 +112,12 @@ def load_view_records(folder: str | Path, board: BoardSpec) -> tuple[list[ViewRe
             raise InputError(f"view file {f}: image {view.image_path} is {s[0]}x{s[1]}, the "
                              f"others {size[0]}x{size[1]}", file=str(f), key="image")
         size = s
-        records.append(ViewRecord(view.name, view.T_base_flange, detect_board(img, board),
-                                  view.joints_deg, str(view.image_path)))
+        det, reason = detect_board_explained(img, board)
+        if log is not None:
+            log(f"{view.name}: {'board ' + reason if det is not None else 'NOT USED: ' + reason}"
+                f" [{len(records) + 1}/{len(files)}]")
+        records.append(ViewRecord(view.name, view.T_base_flange, det, view.joints_deg,
+                                  str(view.image_path), None if det is not None else reason))
     assert size is not None
     return records, size
 
@@ -119,8 +131,9 @@ def calibrate_from_folder(folder: str | Path, board_spec: str | BoardSpec,
     ``T_base_cam`` (the ``camera_pose`` key). ``kwargs`` go to :func:`solve_views`.
     """
     board = parse_board_spec(board_spec) if isinstance(board_spec, str) else board_spec
-    records, size = load_view_records(folder, board)
+    records, size = load_view_records(folder, board, kwargs.get("log"))
     meta = {"source": f"folder {Path(folder).resolve()}"}
     meta.update(kwargs.pop("metadata", {}) or {})
     return solve_views(records, board, size, eye_to_hand=eye_to_hand, metadata=meta, **kwargs)
+
 

@@ -32,7 +32,8 @@ Steps of :func:`solve_hand_eye`:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -56,7 +57,9 @@ from calibration.handeye_checks import (
     STILL_MM,
     check_motions,
 )
+from calibration.handeye_diagnose import INCONSISTENT_MM, board_spread_mm, diagnose_poses
 from calibration.handeye_model import Observation, _camera_from, _intr_vector, _Problem
+from calibration.handeye_noise import estimate_noise, hand_eye_std, leave_one_out
 from calibration.handeye_pose_only import _solve_pose_only
 from calibration.handeye_result import HandEyeResult, view_residuals
 from calibration.pose_streams import pair_pose_streams
@@ -65,6 +68,13 @@ from controller.geometry.camera_model import CameraModel
 from controller.geometry.poses import Pose
 
 F64 = NDArray[np.float64]
+
+#: Default refusal limit of the reprojection RMS with the recorded poses, as a fraction of the
+#: image diagonal (7.1 px at 2272x1704, 5.7 px at 1920x1200, 2.0 px at 640x480): what a robot
+#: whose poses are off by about a millimetre gives at the usual distances.
+MAX_RMS_FRACTION = 0.0025
+#: Default refusal limits of the pose consistency (RMS of the per-view pose corrections).
+MAX_CONSISTENCY_MM, MAX_CONSISTENCY_DEG = 3.0, 0.5
 
 __all__ = ["CLOSED_FORM_METHODS", "MIN_AXIS_SPREAD_DEG", "MIN_ROTATION_DEG", "MIN_VIEWS",
            "STILL_DEG", "STILL_MM", "HandEyeResult", "Observation", "_average_pose",
@@ -76,31 +86,63 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
                    observations: Sequence[Observation] | Sequence[Pose],
                    camera: CameraModel | None = None, *, names: Sequence[str] | None = None,
                    eye_to_hand: bool = False, method: str = "park", refine: bool = True,
-                   refine_intrinsics: bool = False, robot_sigma_mm: float = 0.05,
-                   robot_sigma_deg: float = 0.01, loss: str = "soft_l1",
+                   refine_intrinsics: bool = False, robot_sigma_mm: float | None = None,
+                   robot_sigma_deg: float | None = None, loss: str = "soft_l1",
                    reject_factor: float = 4.0, reject_min_px: float = 1.0,
-                   reject_min_sigma: float = 6.0, max_rms_px: float = 3.0,
-                   max_consistency_mm: float = 0.5, max_consistency_deg: float = 0.1,
+                   reject_min_sigma: float = 6.0, max_rms_px: float | None = None,
+                   max_consistency_mm: float = MAX_CONSISTENCY_MM,
+                   max_consistency_deg: float = MAX_CONSISTENCY_DEG,
                    max_rejected_fraction: float = 0.34, min_views: int = MIN_VIEWS,
-                   min_rotation_deg: float = MIN_ROTATION_DEG) -> HandEyeResult:
+                   min_rotation_deg: float = MIN_ROTATION_DEG, leave_out: bool = True,
+                   progress: Callable[[str], None] | None = None) -> HandEyeResult:
     """Solve hand-eye from flange poses and board observations (see the module docstring).
 
     ``T_base_flange_list``: recorded flange poses (mm). ``observations``: per view either an
     :class:`Observation` (corners; needs ``camera``) or a 4x4 ``T_cam_board`` (board pose only;
     then residuals are distances in mm of points on a 200 mm square on the board, and intrinsics
     cannot be refined). ``robot_sigma_mm`` / ``_deg``: the robot's pose noise (per axis), the
-    prior of the per-view pose corrections. A view is bad when its pose correction exceeds
-    ``max(reject_factor * median, reject_min_sigma)`` sigmas, or its reprojection RMS (with its
-    correction) exceeds ``max(reject_factor * median, reject_min_px)``.
+    prior of the per-view pose corrections; None (the default) estimates both from the residuals
+    (calibration/handeye_noise.py), as it always does the corner noise. A view is bad when its
+    pose correction exceeds ``max(reject_factor * median, reject_min_sigma)`` sigmas, or its
+    reprojection RMS (with its correction) exceeds ``max(reject_factor * median,
+    reject_min_px)``. ``leave_out``: predict every view from a solve without it (the report's
+    leave-one-out table and the jackknife one-sigma). ``progress`` gets a line per step.
 
     ``residual_px`` is the reprojection RMS of the views kept *with their recorded poses* (what
     the calibration will see in use); ``consistency_mm`` / ``_deg`` the RMS of the pose corrections
-    (how well robot poses and images agree).
+    (how well robot poses and images agree). ``max_rms_px`` None is :data:`MAX_RMS_FRACTION` of
+    the image diagonal.
 
     Raises :class:`CalibrationError` naming the views for degenerate input (too few views, robot
-    still, too little rotation), for too many bad views, and for a result above ``max_rms_px``,
-    ``max_consistency_mm`` or ``max_consistency_deg``.
+    still, too little rotation), for input that fits only once a usual mistake is undone (units,
+    quaternion order, inverted poses: the message names it), for too many bad views, and for a
+    result above ``max_rms_px``, ``max_consistency_mm`` or ``max_consistency_deg``; its details
+    hold ``options``, the command-line options that would change the outcome.
     """
+    # One BLAS thread: the matrices here are a few hundred wide; threads only add contention
+    # (on a 2-core machine shared with other jobs a 132x132 pinv took a second with them).
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _solve(T_base_flange_list, observations, camera, names=names,
+                      eye_to_hand=eye_to_hand, method=method, refine=refine,
+                      refine_intrinsics=refine_intrinsics, robot_sigma_mm=robot_sigma_mm,
+                      robot_sigma_deg=robot_sigma_deg, loss=loss, reject_factor=reject_factor,
+                      reject_min_px=reject_min_px, reject_min_sigma=reject_min_sigma,
+                      max_rms_px=max_rms_px, max_consistency_mm=max_consistency_mm,
+                      max_consistency_deg=max_consistency_deg,
+                      max_rejected_fraction=max_rejected_fraction, min_views=min_views,
+                      min_rotation_deg=min_rotation_deg, leave_out=leave_out, progress=progress)
+
+
+def _solve(T_base_flange_list: Sequence[Pose],
+           observations: Sequence[Observation] | Sequence[Pose], camera: CameraModel | None, *,
+           names: Sequence[str] | None, eye_to_hand: bool, method: str, refine: bool,
+           refine_intrinsics: bool, robot_sigma_mm: float | None,
+           robot_sigma_deg: float | None, loss: str, reject_factor: float,
+           reject_min_px: float, reject_min_sigma: float, max_rms_px: float | None,
+           max_consistency_mm: float, max_consistency_deg: float,
+           max_rejected_fraction: float, min_views: int, min_rotation_deg: float,
+           leave_out: bool, progress: Callable[[str], None] | None) -> HandEyeResult:
+    """:func:`solve_hand_eye`'s work, under one BLAS thread."""
     n = len(T_base_flange_list)
     nm = list(names) if names is not None else [f"view{i + 1:02d}" for i in range(n)]
     if len(observations) != n or len(nm) != n:
@@ -113,7 +155,8 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
         return _solve_pose_only(A, [np.asarray(o, float) for o in observations], nm,
                                 eye_to_hand=eye_to_hand, method=method, refine=refine,
                                 loss=loss, reject_factor=reject_factor,
-                                reject_min_mm=reject_min_px, max_rms_mm=max_rms_px,
+                                reject_min_mm=reject_min_px,
+                                max_rms_mm=3.0 if max_rms_px is None else max_rms_px,
                                 max_rejected_fraction=max_rejected_fraction, min_views=min_views)
     if camera is None:
         raise CalibrationError("solve_hand_eye: corner observations need the camera intrinsics")
@@ -122,29 +165,47 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
     T_cb = [p[0] for p in pnp]
     closed, motions, X, Y = _closed_forms(A, T_cb, eye_to_hand, method,
                                           f"; the views {', '.join(nm)} may be degenerate")
+    say = progress or (lambda line: None)
+    spread = board_spread_mm(A, T_cb, eye_to_hand)
+    if spread > INCONSISTENT_MM:
+        hint = diagnose_poses(A, T_cb, eye_to_hand)
+        if hint is not None:
+            raise CalibrationError(f"hand-eye refused: {hint}", board_spread_mm=spread,
+                                   options=["fix the view files or --board as said, then rerun"])
+    if max_rms_px is None:
+        max_rms_px = MAX_RMS_FRACTION * float(np.hypot(camera.width, camera.height))
     intr = _intr_vector(camera)
-    # Corner noise: the pooled PnP residual (PnP fits 6 of 2N numbers per view).
-    sigma_px = max(0.02, float(np.sqrt(np.mean([p[1] ** 2 for p in pnp]))))
-    sigma_rad = np.radians(robot_sigma_deg)
+    estimate = robot_sigma_mm is None or robot_sigma_deg is None
+    sigma_mm = 0.05 if robot_sigma_mm is None else float(robot_sigma_mm)
+    sigma_rad = float(np.radians(0.01 if robot_sigma_deg is None else robot_sigma_deg))
+    # Corner noise per image axis, to start: the pooled PnP residual (a 2D RMS).
+    sigma_px = max(0.02, float(np.sqrt(np.mean([q[1] ** 2 for q in pnp])))) / np.sqrt(2.0)
+    say(f"closed forms done ({len(closed)} methods); refining {n} views"
+        + (", estimating the robot's pose noise" if estimate else ""))
     used = list(range(n))
     rejected: list[dict[str, Any]] = []
-    corr_mm = np.zeros(n)
-    corr_deg = np.zeros(n)
-    corr_sigma = np.zeros(n)
-    fit_rms = np.zeros(n)
+    corr_mm, corr_deg, corr_sigma, fit_rms = (np.zeros(n) for _ in range(4))
+    noise_info: dict[str, Any] = {}
+    t0 = time.monotonic()
     while True:
         prob = _Problem([A[i] for i in used], [obs[i] for i in used], X, Y, intr,
-                        refine_intrinsics and refine, eye_to_hand, sigma_px, robot_sigma_mm,
-                        sigma_rad)
+                        refine_intrinsics and refine, eye_to_hand, sigma_px, sigma_mm, sigma_rad)
         p = prob.x0()
-        if refine:
-            # One BLAS thread: the SVDs here are ~2000 x 150; threads only add contention (a
-            # 2-core machine shared with other jobs ran this 10x slower with the default).
-            with threadpool_limits(limits=1, user_api="blas"):
-                sol = least_squares(prob.residuals, p, jac=prob.jac, loss=loss, f_scale=3.0,
-                                    method="trf", x_scale="jac", tr_solver="exact",
-                                    max_nfev=100)
-            p = sol.x
+        for it in range(6 if refine else 0):
+            p = _refine(prob, p, loss)
+            J = prob.jac(p)
+            N_inv = np.asarray(np.linalg.pinv(J.T @ J), float)
+            s_px, s_mm, s_rad, factors = estimate_noise(prob, prob.residuals(p), J, N_inv,
+                                                        estimate)
+            change = max(abs(np.log(s_px / prob.sigma_px)), abs(np.log(s_mm / prob.sigma_mm)),
+                         abs(np.log(s_rad / prob.sigma_rad)))
+            prob.sigma_px, prob.sigma_mm, prob.sigma_rad = s_px, s_mm, s_rad
+            noise_info = {"iterations": it + 1, "variance_factors": factors}
+            say(f"  pass {it + 1}: corners {s_px:.3f} px, robot {s_mm:.3f} mm / "
+                f"{np.degrees(s_rad):.4f} deg ({len(used)} views, {time.monotonic() - t0:.0f} s)")
+            if change < 0.05:
+                break
+        sigma_px, sigma_mm, sigma_rad = prob.sigma_px, prob.sigma_mm, prob.sigma_rad
         X, Y, intr_new, D = prob.unpack(p)
         intr = intr_new
         fit = prob.per_view_rms(prob.reprojection(X, Y, intr, D))
@@ -152,7 +213,7 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
             corr_deg[i] = float(np.degrees(np.linalg.norm(D[k, :3])))
             corr_mm[i] = float(np.linalg.norm(D[k, 3:]))
             corr_sigma[i] = float(np.sqrt(np.sum((D[k, :3] / sigma_rad) ** 2)
-                                          + np.sum((D[k, 3:] / robot_sigma_mm) ** 2)))
+                                          + np.sum((D[k, 3:] / sigma_mm) ** 2)))
             fit_rms[i] = fit[k]
         lim_s = max(reject_factor * float(np.median(corr_sigma[used])), reject_min_sigma)
         lim_px = max(reject_factor * float(np.median(fit_rms[used])), reject_min_px)
@@ -171,21 +232,29 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
         rejected.append({"view": nm[worst], "pose_error_mm": round(corr_mm[worst], 3),
                          "pose_error_deg": round(corr_deg[worst], 4),
                          "fit_rms_px": round(float(fit_rms[worst]), 3), "reason": why})
+        say(f"  {nm[worst]} left out: {why}")
         used.remove(worst)
         if len(used) < min_views or len(rejected) > max_rejected_fraction * n:
             listed = ", ".join(r["view"] for r in rejected)
             raise CalibrationError(
                 f"hand-eye refused: too many bad views ({listed}); {len(used)} of {n} views are "
                 f"left. Retake the views named, holding the robot still, with the whole board in "
-                f"the image", rejected_views=rejected)
+                f"the image", rejected_views=rejected,
+                options=["retake the views named", "--robot-sigma-mm / --robot-sigma-deg larger "
+                         "than the estimate if the robot is known to be that inaccurate"])
         check_motions([A[i] for i in used], [nm[i] for i in used], min_views=min_views,
                       min_rotation_deg=min_rotation_deg)
     std_mm = std_deg = None
+    loo: dict[str, Any] = {}
     if refine:
-        std_mm, std_deg = _hand_eye_std(prob, p, X)
+        J = prob.jac(p)
+        std_mm, std_deg = hand_eye_std(np.asarray(np.linalg.pinv(J.T @ J), float), X)
+        if leave_out:
+            say(f"leave-one-out predictions of {len(used)} views")
+            loo = leave_one_out(prob, p, prob.residuals(p), J)
     cam_out = _camera_from(camera, intr) if refine_intrinsics and refine else camera
     # Residuals with the recorded (uncorrected) poses, every view.
-    full = _Problem(A, obs, X, Y, intr, False, eye_to_hand, sigma_px, robot_sigma_mm, sigma_rad)
+    full = _Problem(A, obs, X, Y, intr, False, eye_to_hand, sigma_px, sigma_mm, sigma_rad)
     per_view = full.per_view_rms(full.reprojection(X, Y, intr, np.zeros((n, 6))))
     resid = float(np.sqrt(np.mean(per_view[used] ** 2)))
     c_mm = float(np.sqrt(np.mean(corr_mm[used] ** 2)))
@@ -194,12 +263,25 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
         worst_views = sorted(used, key=lambda i: -per_view[i])[:3]
         listed = ", ".join(f"{nm[i]} ({per_view[i]:.2f} px, {corr_mm[i]:.2f} mm, "
                            f"{corr_deg[i]:.3f} deg)" for i in worst_views)
+        hint = diagnose_poses(A, T_cb, eye_to_hand)
+        options = [f"--max-rms-px {1.05 * resid:.2f}" if resid > max_rms_px else "",
+                   f"--max-consistency {max(max_consistency_mm, 1.05 * c_mm):.2f} "
+                   f"{max(max_consistency_deg, 1.05 * c_deg):.3f}"
+                   if c_mm > max_consistency_mm or c_deg > max_consistency_deg else "",
+                   "retake or remove the worst views named"]
         raise CalibrationError(
-            f"hand-eye refused: reprojection RMS {resid:.2f} px (limit {max_rms_px}), pose "
+            f"hand-eye refused: reprojection RMS {resid:.2f} px (limit {max_rms_px:.2f}), pose "
             f"consistency {c_mm:.3f} mm / {c_deg:.4f} deg (limits {max_consistency_mm} mm / "
-            f"{max_consistency_deg} deg); worst views: {listed}. Check the board spec, the robot's "
-            f"tool0 setting, and retake those views", residual_px=resid, consistency_mm=c_mm,
-            consistency_deg=c_deg)
+            f"{max_consistency_deg} deg); worst views: {listed}. "
+            + (f"Likely cause: {hint}. " if hint else "Check the board spec, the robot's "
+               "tool0 setting, and retake those views. ")
+            + f"Would pass with: {'; '.join(o for o in options if o)}",
+            residual_px=resid, consistency_mm=c_mm, consistency_deg=c_deg,
+            worst_views=[nm[i] for i in worst_views], options=[o for o in options if o],
+            robot_sigma_mm=sigma_mm, robot_sigma_deg=float(np.degrees(sigma_rad)))
+    noise = {"corner_sigma_px": sigma_px, "robot_sigma_mm": sigma_mm,
+             "robot_sigma_deg": float(np.degrees(sigma_rad)),
+             "robot_noise": "estimated from the residuals" if estimate else "given", **noise_info}
     return HandEyeResult(
         camera=cam_out,
         T_flange_cam=None if eye_to_hand else X, T_base_board=None if eye_to_hand else Y,
@@ -210,22 +292,17 @@ def solve_hand_eye(T_base_flange_list: Sequence[Pose],
         T_flange_board=Y if eye_to_hand else None, closed_form=closed, method=method,
         refined_intrinsics=bool(refine_intrinsics and refine),
         per_view_pose_correction={nm[i]: (float(corr_mm[i]), float(corr_deg[i]))
-                                  for i in used}, std_mm=std_mm, std_deg=std_deg)
+                                  for i in used}, std_mm=std_mm, std_deg=std_deg, noise=noise,
+        leave_one_out={nm[i]: (float(loo["rms_px"][k]), float(loo["rms_mm"][k]))
+                       for k, i in enumerate(used)} if loo else {},
+        jackknife_std_mm=loo.get("jackknife_std_mm"),
+        jackknife_std_deg=loo.get("jackknife_std_deg"), max_rms_px=max_rms_px)
 
 
-def _hand_eye_std(prob: _Problem, p: F64, X: Pose) -> tuple[F64, F64]:
-    """One sigma of X (translation mm, rotation deg) along the camera axes from the Jacobian.
+def _refine(prob: _Problem, p: F64, loss: str) -> F64:
+    """One robust least-squares solve of ``prob`` from ``p``."""
+    sol = least_squares(prob.residuals, p, jac=prob.jac, loss=loss, f_scale=3.0,
+                        method="trf", x_scale="jac", tr_solver="exact", max_nfev=100)
+    return np.asarray(sol.x)
 
-    The covariance is ``(J^T J)^-1`` of the whitened residuals (a Cramer-Rao-like bound: what
-    the corner noise and the robot's pose noise leave of the hand-eye with these views). The
-    corner sigma of the problem is a 2D RMS; per image axis it is that over sqrt(2).
-    """
-    J = prob.jac(p)
-    J[: 2 * len(prob.view)] *= np.sqrt(2.0)
-    cov = np.linalg.pinv(J.T @ J)
-    R = X[:3, :3]
-    ct = R.T @ cov[3:6, 3:6] @ R  # translation is added in the flange frame
-    std_mm = np.sqrt(np.clip(np.diag(ct), 0.0, None))
-    std_deg = np.degrees(np.sqrt(np.clip(np.diag(cov[0:3, 0:3]), 0.0, None)))  # right-applied
-    return std_mm, std_deg
 

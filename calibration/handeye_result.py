@@ -47,6 +47,17 @@ class HandEyeResult:
     #: residuals, the robot's pose noise); None without corners or refinement.
     std_mm: F64 | None = None
     std_deg: F64 | None = None
+    #: The noise the refinement weighed with: corners (px per axis), robot (mm, deg per axis),
+    #: and whether the robot's was estimated from the residuals or given.
+    noise: dict[str, Any] = field(default_factory=dict)
+    #: Per view used: (px, mm at the board) RMS of its corners predicted from its recorded robot
+    #: pose by the solution without it.
+    leave_one_out: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: One sigma of X along the camera axes from the spread of the leave-one-out solutions.
+    jackknife_std_mm: F64 | None = None
+    jackknife_std_deg: F64 | None = None
+    #: The refusal limit of ``residual_px`` that was applied (px).
+    max_rms_px: float | None = None
 
     @property
     def X(self) -> Pose:
@@ -82,8 +93,33 @@ class HandEyeResult:
                 for k, v in self.per_view_pose_correction.items()},
         }
         if self.std_mm is not None and self.std_deg is not None:
-            out["hand_eye_std_mm_cam_xyz"] = [round(float(v), 4) for v in self.std_mm]
-            out["hand_eye_std_deg_cam_xyz"] = [round(float(v), 5) for v in self.std_deg]
+            std_mm, std_deg = self.std_mm, self.std_deg
+            if self.jackknife_std_mm is not None and self.jackknife_std_deg is not None:
+                out["hand_eye_std_model_mm_cam_xyz"] = _r(self.std_mm, 4)
+                out["hand_eye_std_model_deg_cam_xyz"] = _r(self.std_deg, 5)
+                out["hand_eye_std_jackknife_mm_cam_xyz"] = _r(self.jackknife_std_mm, 4)
+                out["hand_eye_std_jackknife_deg_cam_xyz"] = _r(self.jackknife_std_deg, 5)
+                # The larger of the two per axis: the jackknife also sees what the noise model
+                # does not (a robot's systematic pose errors).
+                std_mm = np.maximum(self.std_mm, self.jackknife_std_mm)
+                std_deg = np.maximum(self.std_deg, self.jackknife_std_deg)
+            out["hand_eye_std_mm_cam_xyz"] = _r(std_mm, 4)
+            out["hand_eye_std_deg_cam_xyz"] = _r(std_deg, 5)
+        if self.noise:
+            out["noise"] = {k: round(v, 5) if isinstance(v, float) else v
+                            for k, v in self.noise.items()}
+        if self.leave_one_out:
+            px = np.array([v[0] for v in self.leave_one_out.values()])
+            mm = np.array([v[1] for v in self.leave_one_out.values()])
+            worst = sorted(self.leave_one_out, key=lambda k: -self.leave_one_out[k][0])[:3]
+            out["leave_one_out"] = {
+                "rms_px": round(float(np.sqrt(np.mean(px ** 2))), 4),
+                "rms_mm_at_board": round(float(np.sqrt(np.mean(mm ** 2))), 4),
+                "worst_views": worst,
+                "per_view_px_mm": {k: [round(v[0], 4), round(v[1], 4)]
+                                   for k, v in self.leave_one_out.items()}}
+        if self.max_rms_px is not None:
+            out["max_rms_px"] = round(float(self.max_rms_px), 3)
         if self.eye_to_hand:
             out["T_base_cam"] = pose_to_dict(self.X)
             out["T_flange_board"] = pose_to_dict(self.Y)
@@ -102,3 +138,7 @@ def view_residuals(result: HandEyeResult, T_base_flange: Pose, observation: Obse
     T = invert(result.X) @ M @ result.Y
     P = (T[:3, :3] @ observation.object_points.T).T + T[:3, 3]
     return _project(P, _intr_vector(result.camera)) - observation.image_points
+
+
+def _r(v: F64, nd: int) -> list[float]:
+    return [round(float(x), nd) for x in v]

@@ -47,12 +47,13 @@ def solve_views(views: Sequence[ViewRecord], board: BoardSpec, image_size: tuple
             f"hand-eye; use a board with an odd sum (e.g. 9x6) or a ChArUco board")
     found = [v for v in views if v.detection is not None]
     missing = [v.name for v in views if v.detection is None]
+    why = {v.name: v.skip_reason or "no board" for v in views if v.detection is None}
     if len(found) < 5:
         raise CalibrationError(
             f"the board {board.spec} was found in only {len(found)} of {len(views)} views"
             f"{'; not in ' + ', '.join(missing) if missing else ''}; need at least 5: check the "
-            f"board spec (inner corners for a chessboard) and that the whole board is in view",
-            views_without_board=missing)
+            f"board spec (inner corners for a chessboard) and that the whole board is in view"
+            f"{_first_reasons(why)}", views_without_board=missing, why_no_board=why)
     names = [v.name for v in found]
     intr = solve_intrinsics([v.detection.image_points for v in found if v.detection],
                             [v.detection.object_points for v in found if v.detection],
@@ -74,6 +75,7 @@ def solve_views(views: Sequence[ViewRecord], board: BoardSpec, image_size: tuple
         "board": board.spec,
         "views_total": len(views),
         "views_without_board": missing,
+        "why_no_board": why,
         "intrinsics": intr.report(),
         "hand_eye": he.report(),
         "validation": validation,
@@ -152,3 +154,10 @@ def _plain(obj: Any) -> Any:
         return _plain(obj.tolist())
     return obj
 
+
+def _first_reasons(why: dict[str, str], n: int = 2) -> str:
+    """'; NAME: reason' for the first ``n`` distinct reasons a board was not used."""
+    seen: dict[str, str] = {}
+    for name, reason in why.items():
+        seen.setdefault(reason, name)
+    return "".join(f"; {name}: {reason}" for reason, name in list(seen.items())[:n])

@@ -3,8 +3,9 @@
 Two kinds of board, written as a ``SPEC`` string on the command line:
 
 - ``chessboard:COLSxROWS:SQUARE_MM`` -- COLS x ROWS *inner* corners (OpenCV's pattern size),
-  detected with OpenCV's sector-based detector ``cv2.findChessboardCornersSB`` (sub-pixel by
-  construction, Duda & Frese 2018).
+  detected by a cascade of OpenCV's detectors (calibration/chessboard_detect.py: the sector-based
+  ``cv2.findChessboardCornersSB``, Duda & Frese 2018, first; every board either OpenCV detector
+  finds with its defaults is found).
 - ``charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT`` -- COLS x ROWS *squares* with ArUco markers of the
   dictionary ``DICT`` (e.g. ``DICT_5X5_100``), detected with ``cv2.aruco.CharucoDetector``.
 
@@ -31,6 +32,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from calibration.chessboard_detect import find_chessboard, square_mean
 from controller.errors import ConfigError, InputError
 
 F64 = NDArray[np.float64]
@@ -39,8 +41,8 @@ _SPEC_HELP = ("use chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboar
               "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT (squares, e.g. "
               "charuco:8x6:30:22:DICT_5X5_100)")
 
-#: Images larger than this (px, either side) are searched at half size, refined at full size.
-DETECT_DOWNSCALE_ABOVE_PX = 1400
+#: A square smaller than this (mm) is taken for a length given in metres.
+MIN_SQUARE_MM = 1.0
 
 #: Fewest ChArUco corners accepted as a detection (fewer cannot give a stable pose).
 MIN_CHARUCO_CORNERS = 6
@@ -142,6 +144,9 @@ def parse_board_spec(spec: str) -> BoardSpec:
                           f"mm; {_SPEC_HELP}") from err
     if not (np.isfinite(square) and square > 0):
         raise ConfigError(f"board spec {spec!r}: square length must be > 0 mm, got {parts[2]}")
+    if square < MIN_SQUARE_MM:
+        raise ConfigError(f"board spec {spec!r}: a square of {square:g} mm looks like a length in "
+                          f"metres; give it in mm (0.025 m = 25 mm): {_SPEC_HELP}")
     dictionary = ""
     if kind == "charuco":
         if not (np.isfinite(marker) and 0 < marker < square):
@@ -189,17 +194,6 @@ def _as_grey(image: NDArray[Any]) -> NDArray[np.uint8]:
     return img
 
 
-def _square_mean(grey: NDArray[np.uint8], quad: F64) -> float:
-    """Mean intensity inside the inner half of the quadrilateral ``quad`` (4, 2) px."""
-    centre = quad.mean(axis=0)
-    inner = (centre + 0.5 * (quad - centre)).astype(np.float32)
-    mask = np.zeros(grey.shape, np.uint8)
-    cv2.fillConvexPoly(mask, np.round(inner[[0, 1, 3, 2]]).astype(np.int32), 1)
-    if not mask.any():
-        return float(grey[int(round(centre[1])), int(round(centre[0]))])
-    return float(grey[mask.astype(bool)].mean())
-
-
 def _canonical_chessboard(grey: NDArray[np.uint8], corners: F64, cols: int, rows: int) -> F64:
     """Put chessboard corners in the canonical order (see the module docstring)."""
     g = corners.reshape(rows, cols, 2)
@@ -209,61 +203,55 @@ def _canonical_chessboard(grey: NDArray[np.uint8], corners: F64, cols: int, rows
     if a[0] * b[1] - a[1] * b[0] < 0:
         g = g[::-1]
     # The square diagonally inward of corner 0 is black by convention; its neighbour is white.
-    first = _square_mean(grey, np.array([g[0, 0], g[0, 1], g[1, 0], g[1, 1]]))
-    second = _square_mean(grey, np.array([g[0, 1], g[0, 2], g[1, 1], g[1, 2]])) if cols > 2 \
-        else _square_mean(grey, np.array([g[1, 0], g[1, 1], g[2, 0], g[2, 1]]))
+    first = _mean_in(grey, np.array([g[0, 0], g[0, 1], g[1, 0], g[1, 1]]))
+    second = _mean_in(grey, np.array([g[0, 1], g[0, 2], g[1, 1], g[1, 2]])) if cols > 2 \
+        else _mean_in(grey, np.array([g[1, 0], g[1, 1], g[2, 0], g[2, 1]]))
     if first > second:
         g = g[::-1, ::-1]
     return np.ascontiguousarray(g.reshape(-1, 2))
 
 
-def _refine_corners(grey: NDArray[np.uint8], corners: NDArray[Any], board: BoardSpec) -> F64:
-    """Refine the sector-based detector's corners with cornerSubPix (window 0.4 x spacing).
-
-    On simulated boards with exact ground truth this halves the corner error of
-    findChessboardCornersSB alone (0.10 -> 0.05 px RMS at 20-30 px squares) and removes its
-    small inward bias; the window stays inside the squares adjacent to each corner.
-    """
-    c = corners.reshape(board.rows, board.cols, 2).astype(np.float32)
-    spacing = min(float(np.linalg.norm(np.diff(c, axis=0), axis=2).min()),
-                  float(np.linalg.norm(np.diff(c, axis=1), axis=2).min()))
-    win = int(np.clip(0.4 * spacing, 2, 11))
-    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-5)
-    refined = cv2.cornerSubPix(grey, c.reshape(-1, 1, 2).copy(), (win, win), (-1, -1), crit)
-    return np.asarray(refined, np.float64).reshape(-1, 2)
+def _mean_in(grey: NDArray[np.uint8], quad: F64) -> float:
+    m = square_mean(grey, quad)
+    if m is None:  # a corner square cut by the image border: its centre pixel
+        c = np.clip(quad.mean(axis=0), 0, [grey.shape[1] - 1, grey.shape[0] - 1])
+        return float(grey[int(round(c[1])), int(round(c[0]))])
+    return m
 
 
 def detect_board(image: NDArray[Any], board: BoardSpec) -> Detection | None:
     """Find the board's corners in an image (greyscale or BGR uint8); None when it is not found.
 
-    Chessboards must be seen whole (the sector-based detector needs every inner corner); ChArUco
+    Chessboards must be seen whole (every inner corner); ChArUco
     boards may be partly hidden or out of frame and return the corners seen (at least
     :data:`MIN_CHARUCO_CORNERS`). Corner positions are sub-pixel, (u, v) with the origin at the
     centre of the top-left pixel. Raises :class:`InputError` for a non-image array.
     """
+    return detect_board_explained(image, board)[0]
+
+
+def detect_board_explained(image: NDArray[Any], board: BoardSpec) -> tuple[Detection | None, str]:
+    """:func:`detect_board` and a one-line reason, for the report and the console.
+
+    The reason names the detector that found the board, or says why no board is accepted (see
+    calibration/chessboard_detect.py).
+    """
     grey = _as_grey(image)
     if board.kind == "chessboard":
-        # CALIB_CB_EXHAUSTIVE finds boards seen at a slant; CALIB_CB_ACCURACY upsamples for a more
-        # precise sub-pixel fit (OpenCV docs, findChessboardCornersSB flags).
-        flags = cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
-        # Large images: find the board at half size (4x faster), refine at full size below.
-        scale = 2.0 if max(grey.shape) > DETECT_DOWNSCALE_ABOVE_PX else 1.0
-        small = grey if scale == 1.0 else cv2.resize(grey, None, fx=1 / scale, fy=1 / scale,
-                                                     interpolation=cv2.INTER_AREA)
-        found, corners = cv2.findChessboardCornersSB(small, (board.cols, board.rows), flags=flags)
-        if not found or corners is None or len(corners) != board.n_corners:
-            return None
-        corners = (corners.astype(np.float64) + 0.5) * scale - 0.5
-        pts = _canonical_chessboard(grey, _refine_corners(grey, corners, board),
-                                    board.cols, board.rows)
+        corners, why, _ = find_chessboard(grey, board.cols, board.rows)
+        if corners is None:
+            return None, why
+        pts = _canonical_chessboard(grey, corners, board.cols, board.rows)
         ids = np.arange(board.n_corners, dtype=np.int64)
-        return Detection(pts, ids, board.object_points())
+        return Detection(pts, ids, board.object_points()), why
     detector = cv2.aruco.CharucoDetector(board.charuco_board)
     ch_corners, ch_ids, _, _ = detector.detectBoard(grey)
     if ch_ids is None or len(ch_ids) < MIN_CHARUCO_CORNERS:
-        return None
+        n = 0 if ch_ids is None else len(ch_ids)
+        return None, (f"{n} ChArUco corners found, fewer than {MIN_CHARUCO_CORNERS}: is the board "
+                      f"in view and the dictionary {board.dictionary} the printed one?")
     ids = ch_ids.ravel().astype(np.int64)
     order = np.argsort(ids)
     ids = ids[order]
     pts = ch_corners.reshape(-1, 2).astype(np.float64)[order]
-    return Detection(pts, ids, board.object_points()[ids])
+    return Detection(pts, ids, board.object_points()[ids]), f"found ({len(ids)} ChArUco corners)"

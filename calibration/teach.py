@@ -36,7 +36,7 @@ from calibration.calibrate_offline import (
 )
 from calibration.calibration_file import Calibration
 from calibration.solve_views import solve_views
-from calibration.targets import BoardSpec, detect_board
+from calibration.targets import BoardSpec, detect_board_explained
 from calibration.teach_poses import explore_poses, rough_calibration, spread_poses
 from calibration.teach_progress import (
     TARGET_COVERAGE,
@@ -100,7 +100,8 @@ def collect_view(robot: TeachRobot, camera: TeachCamera, board: BoardSpec, name:
     joints = np.asarray(robot.joints_deg(), float)
     T = np.asarray(robot.flange_pose(), float)
     image = camera.grab(timeout_s)
-    return ViewRecord(name, T, detect_board(image, board), joints), image
+    det, reason = detect_board_explained(image, board)
+    return ViewRecord(name, T, det, joints, skip_reason=None if det else reason), image
 
 
 def run_teach(robot: TeachRobot, camera: TeachCamera, board: BoardSpec, *,
@@ -146,7 +147,7 @@ def run_teach(robot: TeachRobot, camera: TeachCamera, board: BoardSpec, *,
                 doc["recorded_joints_deg"] = [round(float(v), 6) for v in rec.joints_deg]
             atomic_write_text(folder / f"{name}.json", dumps(doc))
         found = (f"board found ({len(rec.detection)} corners)" if rec.detection is not None
-                 else "NO BOARD: not used (is the whole board in the image?)")
+                 else f"NO BOARD: not used: {rec.skip_reason}")
         out.write(f"{name}: {found}\n")
         out.write(collection_progress(views, size, target_views).line() + "\n")
         out.flush()

@@ -33,6 +33,8 @@ class ViewRecord:
     detection: Detection | None
     joints_deg: F64 | None = None
     image_path: str | None = None
+    #: Why the board is not used in this view (printed and reported); None when it was found.
+    skip_reason: str | None = None
 
 
 @dataclass

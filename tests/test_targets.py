@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from shared_data import CHESSBOARD, needs
 
-from calibration.targets import BoardSpec, detect_board, parse_board_spec
+from calibration.chessboard_detect import RING_MIN_FRACTION, ring_fraction
+from calibration.targets import BoardSpec, detect_board, detect_board_explained, parse_board_spec
 from controller.errors import ConfigError, InputError
 from controller.geometry.camera_model import default_camera
 from controller.geometry.poses import make_pose, rotation_about
@@ -67,8 +68,9 @@ def test_detect_simulated(spec, roll):
 def test_no_board_is_none():
     b = parse_board_spec("chessboard:9x6:20")
     rng = np.random.default_rng(0)
-    assert detect_board(rng.integers(0, 255, (480, 640), dtype=np.uint8), b) is None
-    assert detect_board(np.full((480, 640, 3), 128, np.uint8), b) is None
+    # Small images: every detector setting runs on an image without a board (a few seconds here).
+    assert detect_board(rng.integers(0, 255, (240, 320), dtype=np.uint8), b) is None
+    assert detect_board(np.full((240, 320, 3), 128, np.uint8), b) is None
 
 
 def test_bad_image():
@@ -101,3 +103,97 @@ def test_real_chessboard_images():
             a, c = g[0, 1] - g[0, 0], g[1, 0] - g[0, 0]
             assert a[0] * c[1] - a[1] * c[0] > 0
     assert found == 5
+
+
+def test_squares_given_instead_of_inner_corners():
+    """A 9x6 board (10x7 squares) given as 10x7, or as 8x5: no board, and the message says which
+    size is in the image and that COLSxROWS counts inner corners."""
+    b = parse_board_spec("chessboard:9x6:20")
+    img = render_board(CAM, b, board_pose(b), seed=2)
+    for spec in ("chessboard:10x7:20", "chessboard:8x5:20"):
+        d, why = detect_board_explained(img, parse_board_spec(spec))
+        assert d is None
+        assert "INNER corners" in why and "but a 9x6 one is" in why, why
+
+
+def test_ring_check_tells_a_board_from_its_edge():
+    """The squares around a true grid alternate; around a grid whose outer row is the board's
+    edge (what a board given in squares can produce) half of them are the white margin."""
+    b = parse_board_spec("chessboard:9x6:20")
+    T = board_pose(b, tilt=0.2)
+    img = render_board(CAM, b, T, seed=4)
+    uv, _ = true_corners(CAM, b, T)
+    assert ring_fraction(img, uv, 9, 6) > 0.95
+    # The 11x8 grid of the checkered area's corners, its outer row on the board's edge.
+    edge = parse_board_spec("chessboard:11x8:20")
+    T_edge = T @ make_pose(np.eye(3), [-20.0, -20.0, 0.0])
+    uv_edge, inside = true_corners(CAM, edge, T_edge)
+    assert inside.all()
+    assert ring_fraction(img, uv_edge, 11, 8) < RING_MIN_FRACTION
+
+
+def test_cascade_falls_back_when_the_first_detector_misses(monkeypatch):
+    """The normalised SB detector missing a board (as it did on ten real 28x17 views) is not the
+    end: the next settings find it, and the reason names the one that did."""
+    import calibration.chessboard_detect as cd
+
+    b = parse_board_spec("chessboard:9x6:20")
+    T = board_pose(b)
+    img = render_board(CAM, b, T, seed=5)
+    monkeypatch.setattr(cd, "CASCADE", [("SB normalised", lambda g, p: None), *cd.CASCADE[1:]])
+    d, why = detect_board_explained(img, b)
+    assert d is not None and why == "found (SB)"
+    uv, _ = true_corners(CAM, b, T)
+    assert np.sqrt(np.mean(np.sum((d.image_points - uv) ** 2, axis=1))) < 0.15
+
+
+def steep_28x17_views(n, seed, width=960):
+    """``n`` rendered views of a 28x17 board (20 mm squares) tilted 40-60 deg from its normal,
+    whole in the image, with varied light, blur and noise; yields (image, T_cam_board)."""
+    from controller.geometry.poses import invert
+    from drivers.sim.sim_board import default_board_pose, look_at
+
+    cam = default_camera(2272, 1704).scaled(width / 2272)
+    b = parse_board_spec("chessboard:28x17:20")
+    Y = default_board_pose(b)
+    centre = Y[:3, :3] @ b.object_points().mean(axis=0) + Y[:3, 3]
+    rng = np.random.default_rng(seed)
+    w, h = b.size_mm
+    dist0 = max(w, h) / 0.7 * cam.fx / cam.width
+    out = []
+    while len(out) < n:
+        az, tilt = rng.uniform(0, 2 * np.pi), np.radians(rng.uniform(40, 60))
+        eye = centre + dist0 * rng.uniform(0.8, 1.2) * np.array(
+            [np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), np.cos(tilt)])
+        target = centre + np.array([rng.uniform(-0.2, 0.2) * w, rng.uniform(-0.2, 0.2) * h, 0])
+        T = invert(look_at(eye, target, np.radians(rng.uniform(-35, 35)))) @ Y
+        if not true_corners(cam, b, T)[1].all():
+            continue
+        img = render_board(cam, b, T, seed=len(out), blur_sigma_px=rng.uniform(0, 1.2),
+                           illumination=rng.uniform(0.35, 1.1), gain_dark=rng.uniform(0, 0.3),
+                           noise_sigma=rng.uniform(1, 3))
+        out.append((cam, b, img, T))
+    return out
+
+
+def test_steep_28x17_board_found_wherever_opencv_finds_it():
+    """bench/bench_calibration.py --steep runs this on 1920x1200 images and more views; here
+    three views at 960 px (the first view of seed 1, which no detector finds, is skipped: a
+    failing search costs half a minute here and shows nothing about this property)."""
+    opencv_found = 0
+    for cam, b, img, T in steep_28x17_views(4, seed=1)[1:]:
+        classic = cv2.findChessboardCorners(img, (28, 17))[0]
+        sb = cv2.findChessboardCornersSB(img, (28, 17))[0]
+        d, why = detect_board_explained(img, b)
+        if classic or sb:
+            opencv_found += 1
+            assert d is not None, why
+        if d is not None:
+            uv, _ = true_corners(cam, b, T)
+            assert np.sqrt(np.mean(np.sum((d.image_points - uv) ** 2, axis=1))) < 0.2
+    assert opencv_found == 3
+
+
+def test_square_size_in_metres_refused():
+    with pytest.raises(ConfigError, match="metres"):
+        parse_board_spec("chessboard:9x6:0.025")
