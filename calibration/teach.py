@@ -200,6 +200,7 @@ def run_teach(robot: TeachRobot, camera: TeachCamera, board: BoardSpec, *,
         raise CalibrationError("no views were taken; nothing was saved")
     meta = {"robot_and_camera": identity or {}, "collection": "automatic" if auto_n else "taught"}
     out.write("solving...\n")
+    solve_kwargs.setdefault("log", lambda line: out.write(line + "\n") if line else None)
     calib, report = solve_views(views, board, size, eye_to_hand=eye_to_hand, metadata=meta,
                                 **solve_kwargs)
     he = report["hand_eye"]

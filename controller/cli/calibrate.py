@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from controller.errors import ConfigError
+from controller.errors import CalibrationError, ConfigError
 from controller.jsonio import emit_json
 
 
@@ -61,18 +61,20 @@ def register(sub: Any) -> None:
                    help="teach: also record every image and view file in DIR")
     p.add_argument("--holdout-every", type=int, default=5, metavar="K",
                    help="validate on every K-th good view held out (default 5; 0 = no)")
-    p.add_argument("--robot-sigma-mm", type=float, default=0.05,
-                   help="robot pose noise per axis, mm (default 0.05)")
-    p.add_argument("--robot-sigma-deg", type=float, default=0.01,
-                   help="robot orientation noise per axis, deg (default 0.01)")
-    p.add_argument("--max-rms-px", type=float, default=3.0,
+    p.add_argument("--intrinsics", metavar="FILE",
+                   help="a calibration file (YAML) whose camera model is used as it is: the "
+                   "intrinsics are not refined (default: refined jointly with the hand-eye)")
+    p.add_argument("--robot-sigma-mm", type=float, default=None,
+                   help="robot pose noise per axis, mm (default: estimated from the data)")
+    p.add_argument("--robot-sigma-deg", type=float, default=None,
+                   help="robot orientation noise per axis, deg (default: estimated)")
+    p.add_argument("--max-rms-px", type=float, default=None,
                    help="refuse a hand-eye whose reprojection RMS (recorded poses) is above this "
-                   "(default 3 px)")
-    p.add_argument("--max-consistency", type=float, nargs=2, default=[0.5, 0.1],
+                   "(default 0.25 %% of the image diagonal: 5.7 px at 1920x1200)")
+    p.add_argument("--max-consistency", type=float, nargs=2, default=[3.0, 0.5],
                    metavar=("MM", "DEG"),
                    help="refuse a hand-eye whose robot poses and images disagree by more than "
-                   "this RMS (default 0.5 mm 0.1 deg; raise it for a robot whose absolute "
-                   "accuracy is worse)")
+                   "this RMS (default 3 mm 0.5 deg)")
     p.add_argument("--pivot-mm", type=float, default=350.0,
                    help="--auto: distance along tool z about which poses are tilted (default 350)")
     p.add_argument("--workspace", metavar="X0,Y0,Z0,X1,Y1,Z1",
@@ -98,8 +100,7 @@ def _workspace(text: str | None) -> tuple[Any, Any]:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from calibration.calibration_file import save_calibration
-    from calibration.export import FORMATS, export_hand_eye
+    from calibration.export import FORMATS
     from calibration.targets import parse_board_spec
 
     board = parse_board_spec(args.board)
@@ -110,10 +111,44 @@ def _run(args: argparse.Namespace) -> int:
             raise ConfigError(f"--export {e!r}: use FORMAT:FILE with FORMAT one of "
                               f"{', '.join(FORMATS)}")
         exports.append((fmt, path))
-    solve_kw = {"holdout_every": args.holdout_every, "robot_sigma_mm": args.robot_sigma_mm,
-                "robot_sigma_deg": args.robot_sigma_deg, "max_rms_px": args.max_rms_px,
-                "max_consistency_mm": args.max_consistency[0],
-                "max_consistency_deg": args.max_consistency[1]}
+    solve_kw: dict[str, Any] = {
+        "holdout_every": args.holdout_every, "robot_sigma_mm": args.robot_sigma_mm,
+        "robot_sigma_deg": args.robot_sigma_deg, "max_rms_px": args.max_rms_px,
+        "max_consistency_mm": args.max_consistency[0],
+        "max_consistency_deg": args.max_consistency[1], "log": _stderr_line}
+    if args.intrinsics is not None:
+        from calibration.calibration_file import load_calibration
+
+        if args.images is not None:
+            raise ConfigError("--intrinsics fixes the camera model for a hand-eye; --images "
+                              "calibrates the intrinsics themselves: give one or the other")
+        solve_kw["intrinsics"] = load_calibration(args.intrinsics).camera
+        solve_kw["intrinsics_source"] = str(args.intrinsics)
+    try:
+        return _solve_and_write(args, board, exports, solve_kw)
+    except CalibrationError as err:
+        # A refusal writes its report too: what was found, why it stopped, what would change it.
+        report = dict(err.details.get("report") or {})
+        report.update({"status": "refused", "error": str(err),
+                       "options": list(err.details.get("options", [])),
+                       "details": {k: v for k, v in err.details.items()
+                                   if k not in ("report", "options")}})
+        emit_json(report, args.report)
+        if report["options"]:
+            _stderr_line("would change the outcome: " + "; ".join(report["options"]))
+        raise
+
+
+def _stderr_line(line: str) -> None:
+    if line:
+        print(line, file=sys.stderr, flush=True)
+
+
+def _solve_and_write(args: argparse.Namespace, board: Any, exports: list[tuple[str, str]],
+                     solve_kw: dict[str, Any]) -> int:
+    from calibration.calibration_file import save_calibration
+    from calibration.export import export_hand_eye
+
     if args.images is not None:
         from calibration.teach import calibrate_images
 
@@ -124,7 +159,7 @@ def _run(args: argparse.Namespace) -> int:
         if not paths:
             raise ConfigError(f"--images {args.images!r} matches no file; quote the glob and "
                               f"check the folder")
-        calib, report = calibrate_images(paths, board)
+        calib, report = calibrate_images(paths, board, log=_stderr_line)
         if exports:
             raise ConfigError("--export needs a hand-eye result; --images gives intrinsics only")
     elif args.from_folder is not None:
@@ -139,6 +174,7 @@ def _run(args: argparse.Namespace) -> int:
         from controller.jsonio import atomic_write_text
 
         atomic_write_text(path, export_hand_eye(calib, fmt))
+    report["status"] = "written"
     report["output"] = str(args.output)
     report["previous_file_kept"] = None if prev is None else str(prev)
     print(f"seamguide calibrate: wrote {args.output}"
