@@ -135,6 +135,11 @@ def _stem(case: Case) -> Path:
     return CACHE / CACHE_TAG / kind_set / difficulty / f"{split}-{seed:05d}"
 
 
+def case_cached(case: Case) -> bool:
+    """Whether a case's views are in the cache."""
+    return _stem(case).with_suffix(".npz").exists()
+
+
 def render_case(case: Case) -> str:
     """Render (and cache) the views of a case; returns "cached" or "rendered"."""
     stem = _stem(case)

@@ -74,3 +74,19 @@ def test_tack_open_preset():
     for s0, s1 in sc.occluded_spans_mm:
         assert 0 <= s0 < s1 <= sc.length_mm
     assert any(d.layer == "over" and d.kind == "tack" for d in sc.decals)
+
+
+def test_close_ups_are_dark_noisy_defocused_and_tinted():
+    ups = [make_scene("straight", s, "hard", variety="wide") for s in range(60)]
+    ups = [sc for sc in ups if sc.look.family == "closeup"]
+    assert len(ups) >= 5
+    for sc in ups:
+        assert 150.0 <= sc.look.standoff_mm <= 220.0
+        assert 14.0 <= sc.gap_mm * FX_NOMINAL / sc.look.standoff_mm <= 28.0  # a wide gap band
+        assert sc.noise_dn >= 4.0 and sc.blur_px >= 2.0 and sc.exposure <= 0.45
+        b, g, r = sc.look.cast_bgr
+        assert g > b and g > r and sc.look.spot > 0  # a green-tinted spot light
+    shop = [sc for sc in (make_scene("arc", s, "medium", variety="wide") for s in range(40))
+            if sc.look.family == "shop"]
+    assert shop and all(sc.look.rust > 0 and sc.look.ground_mm[0] > 0 and sc.look.ridge_mm > 0
+                        for sc in shop)
