@@ -106,6 +106,8 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
         row["views"].append(v)
     if len(imgs) == 2:
         row["pair"] = _locate(z, curves, cam) if len(curves) == 2 else {"result": "refused"}
+        row["pair"]["ends_seen"] = all(k == "joint_end" for v in row["views"]
+                                       for k in v["end_kinds"])
     return row
 
 
@@ -145,6 +147,9 @@ def summarise(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
         out["pairs"] = len(pairs)
         for k in ("located", "partial", "wrong", "refused"):
             out[f"pairs_{k}"] = sum(p["result"] == k for p in pairs)
+        seen = [p for p in pairs if p["ends_seen"]]
+        out["pairs_ends_seen"] = len(seen)
+        out["pairs_ends_seen_located"] = sum(p["result"] == "located" for p in seen)
         rms = [p["rms_mm"] for p in pairs if p["result"] == "located"]
         out["pairs_rms_mm_median"] = float(np.median(rms)) if rms else None
     return out
@@ -241,7 +246,8 @@ def main(argv: list[str] | None = None) -> int:
     report: dict[str, Any] = {
         "sizes": sizes, "render_s": t_render, "detect_s": t_detect,
         "commit": _git("rev-parse", "--short", "HEAD"),
-        "detector_commit": _git("log", "-1", "--format=%h %s", "--", "controller/vision"),
+        "detector_commit": _git("log", "-1", "--format=%h (%cd)", "--date=format:%H:%M",
+                                "--", "controller/vision"),
         "summary": {key: {n: summarise(r, n) for n in ("ours", "published")}
                     for key, r in rows.items()},
         "reliability": {split: reliability([r for key, rs in rows.items() for r in rs
@@ -276,14 +282,15 @@ def markdown(rep: dict[str, Any]) -> str:
             lines.append(f"| {key} | {name} | {x['views']} | {pct(x['found'], x['views'])} | "
                          f"{x['refused']} | {x['wrong']} ({x['wrong_pen']}) | {x['crash']} |")
     lines += ["", "| pairs: set / difficulty / part | pairs | located | partial | wrong | "
-              "refused | 3D RMS median (located) |", "|---|---|---|---|---|---|---|"]
+              "refused | located, both ends seen in both views | 3D RMS median (located) |",
+              "|---|---|---|---|---|---|---|---|"]
     for key, s in rep["summary"].items():
         x = s["ours"]
         if "pairs" in x:
             rms = "-" if x["pairs_rms_mm_median"] is None else f"{x['pairs_rms_mm_median']:.3f} mm"
             lines.append(f"| {key} | {x['pairs']} | {pct(x['pairs_located'], x['pairs'])} | "
                          f"{x['pairs_partial']} | {x['pairs_wrong']} | {x['pairs_refused']} | "
-                         f"{rms} |")
+                         f"{pct(x['pairs_ends_seen_located'], x['pairs_ends_seen'])} | {rms} |")
     lines += ["", "Reliability (ours, single views of the wide and pen sets): share of returned "
               "seams found per confidence bin.", "",
               "| confidence | " + " | ".join(rep["reliability"]) + " |",
