@@ -16,8 +16,12 @@ from numpy.typing import ArrayLike, NDArray
 from controller.errors import ConfigError, InputError, SafetyError
 from controller.geometry.kinematics import check_joint_limits, flange_pose, irb2400, solve_ik
 from controller.geometry.poses import check_pose, invert
+from controller.geometry.segment_motion import circle_through, segment_poses
 
 F64 = NDArray[np.float64]
+
+#: Largest arc one MoveC may sweep (deg): ABB allows up to 240; the fit uses at most 180.
+MAX_SWEEP_DEG = 180.0
 
 
 @dataclass(frozen=True)
@@ -117,29 +121,76 @@ class MoveLinear:
         solve_ik(irb2400(), self.T_base_tcp @ invert(tool.T_flange_tcp), name="move_linear target")
 
 
+#: Samples of an arc checked against the safety box (a 180 deg arc: every 11 deg).
+_ARC_SAMPLES = 16
+
+
 @dataclass(frozen=True)
 class PathTargets:
-    """A weld path: TCP poses ``T_base_tcp`` (mm, wobj0), in order; uploaded, never truncated."""
+    """A weld path: TCP poses ``T_base_tcp`` (mm, wobj0), in order; uploaded, never truncated.
+
+    ``circles`` (empty, or one entry per target): the circle point (mm) of the ``MoveC`` that
+    reaches the target from the target before it, or None for a ``MoveL``. The first target may
+    not have one (its start is wherever the robot is, which this check does not know).
+    """
 
     targets: tuple[F64, ...]
+    circles: tuple[F64 | None, ...] = ()
 
     def __post_init__(self) -> None:
         if len(self.targets) == 0:
             raise InputError("upload_path: the path has no points")
         object.__setattr__(self, "targets", tuple(
             check_pose(T, f"path point {i + 1}") for i, T in enumerate(self.targets)))
+        if not self.circles:
+            object.__setattr__(self, "circles", (None,) * len(self.targets))
+        if len(self.circles) != len(self.targets):
+            raise InputError(f"upload_path: {len(self.circles)} circle points for "
+                             f"{len(self.targets)} path points; give one (or None) per point")
+        circles: list[F64 | None] = []
+        for i, c in enumerate(self.circles):
+            if c is None:
+                circles.append(None)
+                continue
+            v = np.asarray(c, dtype=np.float64)
+            if v.shape != (3,) or not np.all(np.isfinite(v)):
+                raise InputError(f"upload_path: circle point of path point {i + 1} must be 3 "
+                                 f"finite numbers (mm), got {c!r}")
+            if i == 0:
+                raise InputError("upload_path: the first path point is reached from wherever the "
+                                 "robot is; it cannot be the end of a circle (send a MoveL)")
+            try:
+                circle = circle_through(self.targets[i - 1][:3, 3], v, self.targets[i][:3, 3])
+            except InputError as err:
+                raise InputError(f"upload_path: path point {i + 1}: {err}") from err
+            if np.degrees(circle.sweep_rad) > MAX_SWEEP_DEG + 1e-6:
+                raise InputError(f"upload_path: the circle to path point {i + 1} sweeps "
+                                 f"{np.degrees(circle.sweep_rad):.0f} deg, more than "
+                                 f"{MAX_SWEEP_DEG:.0f}; split it")
+            circles.append(v)
+        object.__setattr__(self, "circles", tuple(circles))
 
     def check(self, limits: SafetyLimits, tool: ToolData, capacity: int) -> None:
-        """Length within ``capacity``, every point in the box and reachable; names the point."""
+        """Length within ``capacity``, every point in the box and reachable; names the point.
+
+        An arc is checked too: its points (sampled) in the box, its middle reachable.
+        """
         if len(self.targets) > capacity:
             raise SafetyError(f"the path has {len(self.targets)} points, the controller buffer "
                               f"holds {capacity}; split the weld, nothing was sent",
                               points=len(self.targets), capacity=capacity)
         T_tcp_flange = invert(tool.T_flange_tcp)
         near = None
-        for i, T in enumerate(self.targets):
-            limits.check_point(T[:3, 3], f"path point {i + 1}")
-            near = solve_ik(irb2400(), T @ T_tcp_flange, near_deg=near, name=f"path point {i + 1}")
+        for i, (T, via) in enumerate(zip(self.targets, self.circles, strict=True)):
+            name = f"path point {i + 1}"
+            limits.check_point(T[:3, 3], name)
+            if via is not None:
+                arc = segment_poses(self.targets[i - 1], T, np.linspace(0, 1, _ARC_SAMPLES), via)
+                for P in arc:
+                    limits.check_point(P[:3, 3], f"the circle to {name}")
+                mid = arc[_ARC_SAMPLES // 2] @ T_tcp_flange
+                near = solve_ik(irb2400(), mid, near_deg=near, name=f"the circle to {name}")
+            near = solve_ik(irb2400(), T @ T_tcp_flange, near_deg=near, name=name)
 
 
 @dataclass(frozen=True)

@@ -126,8 +126,13 @@ class Robot(abc.ABC):
         """Linear move of the TCP to ``T_base_tcp`` (mm); checked (box, speed, IK) first."""
 
     @abc.abstractmethod
-    def upload_path(self, targets: Sequence[ArrayLike]) -> None:
-        """Upload the weld path (``T_base_tcp`` each); every point checked first; never cut."""
+    def upload_path(self, targets: Sequence[ArrayLike],
+                    circle_points_mm: Sequence[ArrayLike | None] | None = None) -> None:
+        """Upload the weld path (``T_base_tcp`` each); every point checked first; never cut.
+
+        The robot reaches each point by a ``MoveL``, or by a ``MoveC`` from the point before
+        when ``circle_points_mm`` (one entry per point, None for a MoveL) gives its circle point.
+        """
 
     @abc.abstractmethod
     def run_weld(self, speed_mm_s: float, arc_output: bool = True) -> MotionHandle:

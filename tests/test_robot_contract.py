@@ -5,6 +5,7 @@ backend only has to pass these."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from controller.errors import ConfigError, JointLimitError, ReachabilityError, SafetyError
@@ -105,3 +106,21 @@ def test_constructor_does_no_io(tmp_path):
     assert not r.link.is_open  # type: ignore[attr-defined]
     m = open_robot("mock://")
     assert m.mock.link_path is None  # the pty is made in open()
+
+
+def test_weld_of_lines_and_circles(robot: Robot):
+    robot.set_tool(TOOL)
+    j0 = [0, 10, 0, 0, 60, 0]
+    robot.move_joints(j0, speed_mm_s=200).wait(5.0)
+    start = flange_pose(irb2400(), j0) @ TOOL
+    # a line, a quarter circle of radius 20 mm, a line: three segments, one progress event each
+    path = [start @ make_pose(t_mm=[0.0, 20.0, 0.0]), start @ make_pose(t_mm=[0.0, 40.0, 20.0]),
+            start @ make_pose(t_mm=[0.0, 40.0, 40.0])]
+    h = np.sqrt(0.5) * 20.0
+    circles = [None, (start @ make_pose(t_mm=[0.0, 20.0 + h, 20.0 - h]))[:3, 3], None]
+    robot.upload_path(path, circles)
+    h = robot.run_weld(speed_mm_s=8.0)
+    h.wait(10.0)
+    assert h.state == "done" and h.progress == 3
+    kinds = [e.kind for e in iter(lambda: robot.poll_event(0.0), None)]
+    assert kinds.count("progress") == 3 and kinds[-1] == "done"

@@ -211,6 +211,31 @@ def check_job_name(job: str) -> str:
     return job
 
 
+# ---- target slots (protocol sections 5 and 5.1) ----------------------------------------------
+
+
+def target_bodies(slot: int, p_mm: ArrayLike, q_wxyz: ArrayLike, previous_quat: str = ""
+                  ) -> list[str]:
+    """Request bodies that set target ``slot`` to position ``p_mm`` and orientation ``q_wxyz``.
+
+    ``XP`` + ``XR`` when the quaternion as written equals ``previous_quat`` (the previous path
+    point's, as written; slots 2 and up), else ``XT`` when its line fits in :data:`MAX_LINE`
+    characters, else ``XP`` + ``XO``.
+    """
+    pos, quat = fmt_position(p_mm), fmt_quat(q_wxyz)
+    if previous_quat and quat == previous_quat and slot >= 2:
+        return [f"XP {slot} {pos}", f"XR {slot}"]
+    one = f"XT {slot} {pos} {quat}"
+    if len(f"Q00 {one}*0000") <= MAX_LINE:
+        return [one]
+    return [f"XP {slot} {pos}", f"XO {slot} {quat}"]
+
+
+def circle_body(slot: int, p_mm: ArrayLike) -> str:
+    """``XC slot x y z``: path point ``slot`` is reached by a MoveC through this point (mm)."""
+    return f"XC {slot} {fmt_position(p_mm)}"
+
+
 # ---- replies and events ------------------------------------------------------------------------
 
 
@@ -300,7 +325,11 @@ def golden_lines() -> list[str]:
     """The golden frames of ``docs/protocol.md`` (without LF), as this codec writes them."""
     return [encode_frame(k, s, b).decode().rstrip("\n") for k, s, b in (
         ("Q", 1, "ID"), ("A", 1, "OK SGRS 1 IRB2400 250"), ("Q", 2, "RJ"),
-        ("A", 0, "ER 10 bad line"))]
+        ("A", 0, "ER 10 bad line"),
+        ("Q", 3, target_bodies(2, [1000.5, -50.25, 300.0], [0.0, 0.92388, -0.382683,
+                                                              0.0])[0]),
+        ("Q", 4, circle_body(3, [1010.0, -45.125, 300.0])),
+        ("Q", 5, "RW 7 1"))]
 
 
 if __name__ == "__main__":  # pragma: no cover - regenerates the doc's golden table

@@ -195,36 +195,42 @@ class AbbRobot(Robot):
         return h
 
     def move_linear(self, T_base_tcp: ArrayLike, speed_mm_s: float = 100.0) -> MotionHandle:
-        """Check, then ``SV`` + ``XP 0`` + ``XO 0`` + ``ML``; the handle completes on ``IP``."""
+        """Check, then ``SV`` + ``XT 0`` (or ``XP 0`` + ``XO 0``) + ``ML``; done on ``IP``."""
         cmd = MoveLinear(np.asarray(T_base_tcp, dtype=np.float64), speed_mm_s)
         cmd.check(self.limits, self._tool)
         p, q = pos_quat_from_pose(cmd.T_base_tcp)
         self._call(f"SV {codec.fmt(cmd.speed_mm_s, 1)} 0.0")
-        self._call(f"XP 0 {codec.fmt_position(p)}")
-        self._call(f"XO 0 {codec.fmt_quat(q)}")
+        for body in codec.target_bodies(0, p, q):
+            self._call(body)
         mid = self._next_mid()
         h = self._handle(mid, "move_linear")
         self._call(f"ML {mid}")
         return h
 
-    def upload_path(self, targets: Sequence[ArrayLike]) -> None:
-        """Check every point (box, IK, length <= capacity), then ``PN n`` and XP + XO (or XR) each.
+    def upload_path(self, targets: Sequence[ArrayLike],
+                    circle_points_mm: Sequence[ArrayLike | None] | None = None) -> None:
+        """Check every point (box, IK, length <= capacity, arcs), then ``PN n`` and each point.
 
-        A path longer than the controller buffer raises :class:`SafetyError` before any byte.
+        A point goes as ``XT`` (or ``XP`` + ``XO``, or ``XP`` + ``XR`` when its orientation as
+        written repeats the previous point's), then ``XC`` when it has a circle point
+        (``circle_points_mm``: one per point, None for a MoveL). A path longer than the
+        controller buffer raises :class:`SafetyError` before any byte.
         """
-        path = PathTargets(tuple(np.asarray(T, dtype=np.float64) for T in targets))
+        circles = tuple(circle_points_mm) if circle_points_mm is not None else ()
+        path = PathTargets(tuple(np.asarray(T, dtype=np.float64) for T in targets),
+                           tuple(None if c is None else np.asarray(c, dtype=np.float64)
+                                 for c in circles))
         path.check(self.limits, self._tool, self._capacity)
         self._path_len = 0
         self._call(f"PN {len(path.targets)}")
         previous = ""
-        for i, T in enumerate(path.targets, start=1):
+        for i, (T, via) in enumerate(zip(path.targets, path.circles, strict=True), start=1):
             p, q = pos_quat_from_pose(T)
-            self._call(f"XP {i} {codec.fmt_position(p)}")
-            quat = codec.fmt_quat(q)
-            # XR: the same orientation as the point before (as written on the wire), 10 bytes
-            # instead of 45; most torch orientations repeat along a seam.
-            self._call(f"XR {i}" if quat == previous else f"XO {i} {quat}")
-            previous = quat
+            for body in codec.target_bodies(i, p, q, previous):
+                self._call(body)
+            previous = codec.fmt_quat(q)
+            if via is not None:
+                self._call(codec.circle_body(i, via))
         self._path_len = len(path.targets)
 
     def run_weld(self, speed_mm_s: float, arc_output: bool = True) -> MotionHandle:

@@ -22,12 +22,14 @@ from numpy.typing import NDArray
 
 from controller.errors import ConfigError
 from controller.geometry.kinematics import flange_pose, irb2400
-from controller.geometry.poses import Pose, interpolate, pose_error
+from controller.geometry.poses import Pose, invert, pose_error
+from controller.geometry.segment_motion import segment_length_mm, segment_pose, segment_poses
 from drivers.mock.mock_schedule import Schedule
 
 F64 = NDArray[np.float64]
-#: One motion segment: controller joints (deg) and ``T_base_flange`` at its end, duration (s).
-Segment = tuple[F64, Pose, float]
+#: One motion segment: controller joints (deg) and ``T_base_flange`` at its end, duration (s), and
+#: for a circle (MoveC) its circle point (TCP, mm), else None.
+Segment = tuple[F64, Pose, float, F64 | None]
 
 HOME_DEG = (0.0, 0.0, 0.0, 0.0, 30.0, 0.0)
 _ROT_SPEED_DEG_S = 90.0
@@ -111,12 +113,33 @@ class MockArm:
         j = (1 - s) * m["j0"] + s * m["j1"]
         if m["kind"] == "move_joints":
             return j, flange_pose(self.model, j, check_limits=False)
-        return j, interpolate(m["T0"], m["T1"], s)
+        # the TCP moves on the line or circle (MoveL / MoveC), the flange follows it
+        tool = m["tool"]
+        T_tcp = segment_pose(m["T0"] @ tool, m["T1"] @ tool, s, m["via"])
+        return j, T_tcp @ invert(tool)
 
-    def seg_time(self, T0: Pose, T1: Pose) -> float:
-        """Simulated time (s) of a Cartesian segment at the current speed."""
-        d_mm, d_deg = pose_error(T0, T1)
+    def seg_time(self, T0: Pose, T1: Pose, via_mm: F64 | None = None) -> float:
+        """Simulated time (s) of a Cartesian segment at the current speed.
+
+        ``T0``, ``T1`` are flange poses; ``via_mm`` the TCP's circle point of a MoveC.
+        """
+        tool = self._tool
+        d_mm = segment_length_mm(T0 @ tool, T1 @ tool, via_mm)
+        d_deg = pose_error(T0, T1)[1]
         return max(d_mm / self.speed_mm_s, d_deg / _ROT_SPEED_DEG_S)
+
+    def trace(self, entry: dict[str, Any], step_mm: float = 0.1) -> F64:
+        """The TCP path a motion executed (``executed`` entry): poses (N, 4, 4), ``T_base_tcp``.
+
+        Each Cartesian segment the arm ran is sampled every ``step_mm`` or closer, with the same
+        motion model the arm moves by (:mod:`controller.geometry.segment_motion`); a segment cut
+        short (abort, fault) is traced to its end.
+        """
+        out = []
+        for T0, T1, via in entry.get("tcp_segments", []):
+            n = max(2, int(np.ceil(segment_length_mm(T0, T1, via) / step_mm)) + 1)
+            out.append(segment_poses(T0, T1, np.linspace(0.0, 1.0, n), via))
+        return np.concatenate(out) if out else np.zeros((0, 4, 4))
 
     # ---- motions -----------------------------------------------------------------------------
 
@@ -138,7 +161,8 @@ class MockArm:
         self.executed.append(entry)
         j0, T0 = self.current()
         m = {"mid": mid, "kind": kind, "segs": segs, "index": 0, "entry": entry, "j0": j0,
-             "T0": T0, "j1": j0, "T1": T0, "seg_t0": 0.0, "seg_t1": 0.0}
+             "T0": T0, "j1": j0, "T1": T0, "seg_t0": 0.0, "seg_t1": 0.0, "via": None,
+             "tool": self._tool.copy()}
         self._motion = m
 
         def begin() -> None:
@@ -151,10 +175,13 @@ class MockArm:
         return begin
 
     def _next_segment(self, m: dict[str, Any]) -> None:
-        j1, T1, dur = m["segs"][m["index"]]
+        j1, T1, dur, via = m["segs"][m["index"]]
         if m["index"] > 0 or m["kind"] != "weld":
             m["j0"], m["T0"] = self.current()
-        m["j1"], m["T1"] = j1, T1
+        m["j1"], m["T1"], m["via"], m["tool"] = j1, T1, via, self._tool.copy()
+        if m["kind"] != "move_joints":
+            tool = m["tool"]
+            m["entry"].setdefault("tcp_segments", []).append((m["T0"] @ tool, T1 @ tool, via))
         now = self.schedule.now
         m["seg_t0"] = now
         m["seg_t1"] = now + dur * self.time_scale

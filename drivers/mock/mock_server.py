@@ -29,6 +29,7 @@ from controller.geometry.poses import (
     pose_error,
     pose_from_pos_quat,
 )
+from controller.geometry.segment_motion import circle_through
 from drivers.abb import abb_codec as codec
 from drivers.mock.mock_arm import MockArm, Segment
 from drivers.mock.mock_line import MockLine
@@ -68,6 +69,7 @@ class MockServer:
         self._slot_pos: dict[int, F64] = {}
         self._slot_quat: dict[int, F64] = {}
         self._slot_joints: dict[int, tuple[Pose, F64 | None]] = {}
+        self._slot_via: dict[int, F64] = {}
         self._path_n = 0
         self._snapshot: Pose | None = None
         self.cycle_job: str | None = None
@@ -227,6 +229,25 @@ class MockServer:
         self._solve_slot(k)
         return codec.ok_body()
 
+    def _cmd_XT(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 8, "XT")
+        k = self._slot(a[0])
+        if k is None:
+            return codec.error_body(24, "slot out of range")
+        p = codec.parse_numbers(a[1:4], 3, "target position")
+        self._slot_quat[k] = self._quat(a[4:], "target quaternion")
+        self._slot_pos[k] = p
+        self._solve_slot(k)
+        return codec.ok_body()
+
+    def _cmd_XC(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        self._nargs(a, 4, "XC")
+        k = self._slot(a[0])
+        if k is None or k < 1:
+            return codec.error_body(24, "slot out of range")
+        self._slot_via[k] = codec.parse_numbers(a[1:], 3, "circle point")
+        return codec.ok_body()
+
     def _solve_slot(self, k: int) -> None:
         """IK of a completed path slot, near the previous point (the real server does it in RW).
 
@@ -250,6 +271,7 @@ class MockServer:
         for d in (self._slot_pos, self._slot_quat, self._slot_joints):
             for k in [k for k in d if k > 0]:
                 del d[k]
+        self._slot_via.clear()
         self._path_n = n
         return codec.ok_body(str(n))
 
@@ -275,7 +297,8 @@ class MockServer:
         T1 = flange_pose(self.arm.model, j)
         dur = max(pose_error(T0, T1)[0] / self.arm.speed_mm_s,
                   float(np.max(np.abs(j - j0))) / _JOINT_SPEED_DEG_S)
-        self._start(mid, "move_joints", [(j, T1, dur)], after, target=[float(v) for v in j])
+        self._start(mid, "move_joints", [(j, T1, dur, None)], after,
+                    target=[float(v) for v in j])
         return codec.ok_body(str(mid))
 
     def _cmd_ML(self, a: list[str], after: list[Callable[[], None]]) -> str:
@@ -292,7 +315,7 @@ class MockServer:
             return codec.error_body(30, "target unreachable")
         self._slot_pos.pop(0, None)
         self._slot_quat.pop(0, None)
-        self._start(mid, "move_linear", [(j1, T1, self.arm.seg_time(T0, T1))], after,
+        self._start(mid, "move_linear", [(j1, T1, self.arm.seg_time(T0, T1), None)], after,
                     target=[float(v) for v in T1[:3, 3]])
         return codec.ok_body(str(mid))
 
@@ -319,7 +342,14 @@ class MockServer:
                     j = None
             if j is None:
                 return codec.error_body(30, f"path point {i} unreachable")
-            segs.append((j, T, self.arm.seg_time(T_prev, T)))
+            via = self._slot_via.get(i)
+            if via is not None:
+                tool = self.arm.tool
+                try:
+                    circle_through((T_prev @ tool)[:3, 3], via, (T @ tool)[:3, 3])
+                except InputError:
+                    return codec.error_body(12, f"circle point {i} makes no circle")
+            segs.append((j, T, self.arm.seg_time(T_prev, T, via), via))
             j_prev, T_prev = j, T
         self._start(mid, "weld", segs, after, arc=arc, points=n)
         return codec.ok_body(str(mid))
