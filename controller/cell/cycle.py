@@ -36,6 +36,7 @@ from controller.errors import CameraError, CycleAborted, InputError, RobotFault,
 from controller.geometry.camera_model import CameraModel
 from controller.geometry.kinematics import RobotModel, check_pose_consistency, flange_pose, irb2400
 from controller.geometry.poses import pose_to_dict
+from controller.path.path_fit import fit_segments
 from controller.path.rapid_export import rapid_module
 from controller.path.weld_path import WeldPath, plan_weld
 from controller.stereo.locate import Seam3D, ViewObservation, locate_seam
@@ -397,6 +398,9 @@ class WeldCycle:
         path = plan_weld(self.model, seam.points_mm, normal_v, self.job.weld_params(),
                          self.job.workspace(),
                          start_joints_deg=np.asarray(self.robot.read_joints()))
+        # the controller interpolates lines and circles: send the fewest within the tolerance
+        path.segments = fit_segments([t.T_base_tcp for t in path.weld_targets],
+                                     self.job.path_tolerance())
         self.result.path = path
         if self.record is not None:
             self._save_seam(seam, path)
@@ -407,6 +411,7 @@ class WeldCycle:
     def _save_seam(self, seam: Seam3D, path: WeldPath) -> None:
         assert self.record is not None
         self.record.save_json("seam.json", locate_output(seam, path))
+        self.record.note(weld_segments=[g.to_dict() for g in path.segments])
         self.record.save_text("weld_path.mod", rapid_module(
             path, arc_output=self.job.weld.arc_output, comment=f"job {self.job.name}"))
         tips = np.array([t.T_base_tcp[:3, 3] for t in path.targets])
@@ -429,7 +434,7 @@ class WeldCycle:
         self.robot.move_joints(approach.joints_deg, speed_mm_s=self.job.views[0].speed_mm_s
                                ).wait(timeout_s=self._remaining(t))
         self._check_abort()
-        self.robot.upload_path([tg.T_base_tcp for tg in path.targets[1:]])
+        self.robot.upload_path(*path.upload())
         self._check_abort()
         handle = self.robot.run_weld(speed_mm_s=path.params.speed_mm_s)
         handle.wait(timeout_s=self._remaining(t))

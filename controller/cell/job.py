@@ -22,6 +22,7 @@ from controller.errors import ConfigError, SeamguideError
 from controller.geometry.kinematics import check_joint_limits, irb2400
 from controller.geometry.poses import make_pose, quat_wxyz_to_matrix
 from controller.jsonio import atomic_write_text
+from controller.path.path_fit import PathTolerance
 from controller.path.weld_path import WeldParams, WorkspaceBox
 from controller.stereo.locate import QualityLimits
 
@@ -103,6 +104,25 @@ class WeldSpec:
 
 
 @dataclass(frozen=True)
+class PathSpec:
+    """How closely the segments sent to the controller follow the planned path (mm, deg)."""
+
+    tolerance_mm: float = 0.05
+    tolerance_deg: float = 0.2
+    spin_deg: float = 2.0
+
+    def __post_init__(self) -> None:
+        self.tolerance()
+
+    def tolerance(self) -> PathTolerance:
+        """The fitter's :class:`PathTolerance` (raises :class:`ConfigError` out of range)."""
+        try:
+            return PathTolerance(self.tolerance_mm, self.tolerance_deg, self.spin_deg)
+        except ConfigError as err:
+            raise ConfigError(f"[path]: {err}") from err
+
+
+@dataclass(frozen=True)
 class LimitsSpec:
     """Safety limits every motion is checked against before it is sent (base frame, mm)."""
 
@@ -138,6 +158,7 @@ class Job:
     views: list[ViewSpec]
     seam: SeamSpec
     weld: WeldSpec = WeldSpec()
+    path: PathSpec = PathSpec()
     limits: LimitsSpec = LimitsSpec()
     quality: QualityLimits = QualityLimits()
     timeouts: TimeoutsSpec = TimeoutsSpec()
@@ -173,6 +194,10 @@ class Job:
                           travel_angle_deg=w.travel_angle_deg, tool_offset_mm=w.tool_offset_mm,
                           approach_mm=w.approach_mm, spacing_mm=self.seam.spacing_mm,
                           count=self.seam.count, T_flange_tcp=w.tool.pose())
+
+    def path_tolerance(self) -> PathTolerance:
+        """How closely the segments sent to the controller follow the planned path."""
+        return self.path.tolerance()
 
     def workspace(self) -> WorkspaceBox:
         """The workspace box of the limits."""

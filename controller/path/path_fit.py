@@ -87,6 +87,13 @@ class Segment:
         """``MoveL`` or ``MoveC``."""
         return "MoveL" if self.via_mm is None else "MoveC"
 
+    def to_dict(self) -> dict[str, object]:
+        """JSON form: kind, the dense indices it spans, its deviation (mm, deg)."""
+        return {"kind": self.kind, "dense_from": self.first, "dense_to": self.last,
+                "deviation_mm": round(self.deviation[0], 4),
+                "deviation_axis_deg": round(self.deviation[1], 4),
+                "deviation_spin_deg": round(self.deviation[2], 4)}
+
 
 def axis_spin_deg(Ra: ArrayLike, Rb: ArrayLike) -> tuple[F64, F64]:
     """(torch axis angle, spin) in degrees between two stacks of orientations (N, 3, 3).

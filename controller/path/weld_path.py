@@ -100,6 +100,9 @@ class WeldPath:
 
     targets: list[WeldTarget]
     params: WeldParams
+    #: The weld targets as MoveL / MoveC segments (:func:`controller.path.path_fit.fit_segments`),
+    #: when fitted; empty: every target is sent.
+    segments: list[Any] = field(default_factory=list)
 
     @property
     def weld_targets(self) -> list[WeldTarget]:
@@ -109,6 +112,21 @@ class WeldPath:
     def to_json(self) -> list[dict[str, Any]]:
         """The ``weld_path`` list of the locate output contract."""
         return [t.to_dict(i) for i, t in enumerate(self.targets)]
+
+    def upload(self) -> tuple[list[F64], list[F64 | None]]:
+        """What goes to the controller after the approach: TCP poses and their circle points.
+
+        The first weld target (a MoveL from the approach), then the fitted segments' ends (a
+        MoveC where a segment has a circle point), or every weld target when none were fitted,
+        then the depart (a MoveL).
+        """
+        weld = self.weld_targets
+        depart = [t.T_base_tcp for t in self.targets if t.kind == "depart"]
+        if not self.segments:
+            return [t.T_base_tcp for t in weld] + depart, [None] * (len(weld) + len(depart))
+        ends = [weld[0].T_base_tcp] + [s.T_end for s in self.segments] + depart
+        circles = [None] + [s.via_mm for s in self.segments] + [None] * len(depart)
+        return ends, circles
 
 
 #: Span (mm) of the local cubic fitted to the seam points for each tangent (Savitzky-Golay). The

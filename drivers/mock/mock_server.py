@@ -328,7 +328,7 @@ class MockServer:
         targets = [self._target(k) for k in range(1, n + 1)]
         if n == 0 or any(T is None for T in targets):
             return codec.error_body(22, "path incomplete")
-        j_prev, T_prev = self.arm.current()
+        j_prev = self.arm.current()[0]
         segs = []
         for i, T in enumerate(targets, start=1):
             assert T is not None
@@ -342,15 +342,19 @@ class MockServer:
                     j = None
             if j is None:
                 return codec.error_body(30, f"path point {i} unreachable")
-            via = self._slot_via.get(i)
+            segs.append((j, T, 0.0, self._slot_via.get(i)))
+            j_prev = j
+        # a circle starts at the point before it (for point 1: where the robot is)
+        T_prev = self.arm.current()[1]
+        for i, (j, T, _, via) in enumerate(segs, start=1):
             if via is not None:
                 tool = self.arm.tool
                 try:
                     circle_through((T_prev @ tool)[:3, 3], via, (T @ tool)[:3, 3])
                 except InputError:
                     return codec.error_body(12, f"circle point {i} makes no circle")
-            segs.append((j, T, self.arm.seg_time(T_prev, T, via), via))
-            j_prev, T_prev = j, T
+            segs[i - 1] = (j, T, self.arm.seg_time(T_prev, T, via), via)
+            T_prev = T
         self._start(mid, "weld", segs, after, arc=arc, points=n)
         return codec.ok_body(str(mid))
 

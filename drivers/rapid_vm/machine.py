@@ -18,9 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from controller.errors import ReachabilityError
+from controller.errors import InputError, ReachabilityError
 from controller.geometry.kinematics import flange_pose, solve_ik
 from controller.geometry.poses import invert, pos_quat_from_pose, pose_error, pose_from_pos_quat
+from controller.geometry.segment_motion import segment_length_mm
 from drivers.rapid_vm.builtins_core import CORE_FUNCTIONS
 from drivers.rapid_vm.errors import RapidError, RapidStop
 from drivers.rapid_vm.program import Builtin
@@ -171,20 +172,32 @@ class Machine:
 
     def _move_l(self, where: str, a: list[Any], o: dict[str, Any]) -> None:
         target, speed, zone, tool = a
-        T_tcp = pose_of(target)
-        T1 = T_tcp @ invert(self._tool(tool))
+        self._move_cartesian(where, "MoveL", target, None, speed, zone, tool, o)
+
+    def _move_c(self, where: str, a: list[Any], o: dict[str, Any]) -> None:
+        circ, target, speed, zone, tool = a
+        self._move_cartesian(where, "MoveC", target, circ, speed, zone, tool, o)
+
+    def _move_cartesian(self, where: str, name: str, target: Rec, circ: Rec | None, speed: Rec,
+                        zone: Rec, tool: Rec, o: dict[str, Any]) -> None:
+        T_tool = self._tool(tool)
+        T1 = pose_of(target) @ invert(T_tool)
         j0 = self.arm.last_target()
         try:
             j1 = solve_ik(self.arm.model, T1, near_deg=j0)
         except ReachabilityError as err:
-            raise RapidError(ERR_MOTION, f"{where}: MoveL target outside reach") from err
+            raise RapidError(ERR_MOTION, f"{where}: {name} target outside reach") from err
         T0 = flange_pose(self.arm.model, j0, check_limits=False)
-        d_mm, d_deg = pose_error(T0, T1)
-        dur = max(d_mm / max(speed.f["v_tcp"], 1e-6), d_deg / 90.0)
+        via = None if circ is None else pose_of(circ)[:3, 3]
+        try:
+            d_mm = segment_length_mm(T0 @ T_tool, T1 @ T_tool, via)
+        except InputError as err:  # the controller refuses a circle it cannot make
+            raise RapidError(ERR_MOTION, f"{where}: MoveC circle point on the line") from err
+        dur = max(d_mm / max(speed.f["v_tcp"], 1e-6), pose_error(T0, T1)[1] / 90.0)
         if self.weld_move:
             self.weld_move += 1
         fail = self.fail_at_point is not None and self.weld_move - 1 == self.fail_at_point
-        token = self.arm.move("move_linear", j1, T1, dur, fail)
+        token = self.arm.move("move_linear", j1, T1, dur, fail, via)
         if o.get("conc"):
             return
         self.arm.wait(token, "done" if zone.f["finep"] else "started", self.alive)
@@ -240,7 +253,8 @@ class Machine:
             "setdo": (self._set_do, none, proc), "isignaldi": (self._isignal_di, none, proc),
             "idelete": (self._idelete, none, proc), "tpwrite": (self._tpwrite, none, proc),
             "confl": (self._nothing, none, proc), "confj": (self._nothing, none, proc),
-            "movel": (self._move_l, none, proc), "moveabsj": (self._move_abs_j, none, proc),
+            "movel": (self._move_l, none, proc), "movec": (self._move_c, none, proc),
+            "moveabsj": (self._move_abs_j, none, proc),
             "stopmove": (self._nothing, none, proc), "clearpath": (self._stop_move, none, proc),
             "startmove": (self._nothing, none, proc),
             "cjointt": (self._cjoint_t, none, func), "crobt": (self._crob_t, none, func),

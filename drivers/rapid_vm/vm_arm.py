@@ -64,17 +64,18 @@ class VmArm(MockArm):
         self.executed.pop()  # the arm's own log of motions: the controller keeps the real one
 
     def move(self, kind: str, j1: np.ndarray, T1: np.ndarray, dur: float,
-             fail: bool = False) -> int:
+             fail: bool = False, via_mm: np.ndarray | None = None) -> int:
         """Queue a segment (``move_joints`` / ``move_linear``); its token.
 
-        ``fail``: the robot stops with a fault on its way to this segment's end.
+        ``fail``: the robot stops with a fault on its way to this segment's end. ``via_mm``: for
+        a MoveC, the circle point the TCP passes (mm).
         """
         with self._cond:
             self._issued += 1
             token = self._issued
             if fail:
                 self.fail_token = token
-            self._queue.append((token, kind, (j1, T1, dur), False))
+            self._queue.append((token, kind, (j1, T1, dur, via_mm), False))
             self._start_next()
             return token
 

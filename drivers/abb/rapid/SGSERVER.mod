@@ -35,7 +35,7 @@ MODULE SGSERVER
   CONST string DIGITS := "0123456789";
   CONST string JOBCHARS := "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_";
   ! the requests this server knows, each between spaces
-  CONST string REQUESTS := " HI ID ST RJ RP RQ TP TO SV XP XO XR PN CK AB MJ ML RW ";
+  CONST string REQUESTS := " HI ID ST RJ RP RQ TP TO SV XP XO XR XT XC PN CK AB MJ ML RW ";
   ! longest body that fits a line: 80 - "A12 " - "*ABCD"
   CONST num MAXBODY := 71;
 
@@ -71,6 +71,9 @@ MODULE SGSERVER
   VAR robtarget slots{251};
   VAR bool havepos{251};
   VAR bool haverot{251};
+  ! the circle point of a path point reached by MoveC (XC), its orientation that of the point
+  VAR robtarget circs{251};
+  VAR bool havecirc{251};
   VAR num path_n := 0;
   VAR robtarget snap;
   VAR bool havesnap := FALSE;
@@ -422,7 +425,8 @@ MODULE SGSERVER
       ENDIF
       RETURN "OK";
     ENDIF
-    IF c = "XP" OR c = "XO" OR c = "XR" RETURN Target(c);
+    IF c = "XP" OR c = "XO" OR c = "XR" OR c = "XT" RETURN Target(c);
+    IF c = "XC" RETURN Circle();
     IF c = "PN" THEN
       IF nf <> 2 OR (NOT IntArg(2, a)) RETURN "ER 12 bad arguments to PN";
       IF a < 1 RETURN "ER 12 bad arguments to PN";
@@ -430,6 +434,7 @@ MODULE SGSERVER
       FOR i FROM 2 TO CAPACITY + 1 DO
         havepos{i} := FALSE;
         haverot{i} := FALSE;
+        havecirc{i} := FALSE;
       ENDFOR
       path_n := a;
       RETURN "OK " + NumToStr(a, 0);
@@ -452,14 +457,15 @@ MODULE SGSERVER
     RETURN "0";
   ENDFUNC
 
-  ! XP k x y z, XO k q1 q2 q3 q4, XR k: a target slot's position or orientation
+  ! XP k x y z, XO k q1 q2 q3 q4, XR k, XT k x y z q1 q2 q3 q4: a target slot's position,
+  ! orientation, or both
   FUNC string Target(string c)
     VAR num k;
     VAR num w;
     VAR num x;
     VAR num y;
     VAR num z;
-    IF (c = "XP" AND nf <> 5) OR (c = "XO" AND nf <> 6) OR (c = "XR" AND nf <> 2) RETURN "ER 12 bad arguments to " + c;
+    IF (c = "XP" AND nf <> 5) OR (c = "XO" AND nf <> 6) OR (c = "XR" AND nf <> 2) OR (c = "XT" AND nf <> 9) RETURN "ER 12 bad arguments to " + c;
     IF NOT IntArg(2, k) RETURN "ER 12 bad arguments to " + c;
     IF k > CAPACITY RETURN "ER 24 slot out of range";
     IF c = "XP" THEN
@@ -473,6 +479,17 @@ MODULE SGSERVER
       IF Abs(Sqrt(w * w + x * x + y * y + z * z) - 1) > 0.001 RETURN "ER 12 bad arguments to XO";
       slots{k + 1}.rot := [w, x, y, z];
       haverot{k + 1} := TRUE;
+    ELSEIF c = "XT" THEN
+      ! both checked before either is kept
+      IF NOT (NumArg(6, w) AND NumArg(7, x) AND NumArg(8, y) AND NumArg(9, z)) RETURN "ER 12 bad arguments to XT";
+      IF Abs(Sqrt(w * w + x * x + y * y + z * z) - 1) > 0.001 RETURN "ER 12 bad arguments to XT";
+      slots{k + 1}.rot := [w, x, y, z];
+      IF NOT (NumArg(3, x) AND NumArg(4, y) AND NumArg(5, z)) RETURN "ER 12 bad arguments to XT";
+      slots{k + 1}.trans := [x, y, z];
+      slots{k + 1}.robconf := [0, 0, 0, 0];
+      slots{k + 1}.extax := [9E9, 9E9, 9E9, 9E9, 9E9, 9E9];
+      havepos{k + 1} := TRUE;
+      haverot{k + 1} := TRUE;
     ELSE
       ! orientation of slot k = that of slot k - 1 (path points only)
       IF k < 2 RETURN "ER 21 no orientation to repeat";
@@ -483,11 +500,48 @@ MODULE SGSERVER
     RETURN "OK";
   ENDFUNC
 
+  ! XC k x y z: path point k is reached by a MoveC through this circle point (mm)
+  FUNC string Circle()
+    VAR num k;
+    VAR num x;
+    VAR num y;
+    VAR num z;
+    IF nf <> 5 RETURN "ER 12 bad arguments to XC";
+    IF NOT IntArg(2, k) RETURN "ER 12 bad arguments to XC";
+    IF k < 1 OR k > CAPACITY RETURN "ER 24 slot out of range";
+    IF NOT (NumArg(3, x) AND NumArg(4, y) AND NumArg(5, z)) RETURN "ER 12 bad arguments to XC";
+    circs{k + 1}.trans := [x, y, z];
+    havecirc{k + 1} := TRUE;
+    RETURN "OK";
+  ENDFUNC
+
+  ! TRUE when c is at least 0.001 mm off the line from a to b: a, c, b make a circle
+  FUNC bool MakesCircle(pos a, pos c, pos b)
+    VAR num ux;
+    VAR num uy;
+    VAR num uz;
+    VAR num vx;
+    VAR num vy;
+    VAR num vz;
+    VAR num d;
+    ux := c.x - a.x;
+    uy := c.y - a.y;
+    uz := c.z - a.z;
+    vx := b.x - a.x;
+    vy := b.y - a.y;
+    vz := b.z - a.z;
+    d := Sqrt(vx * vx + vy * vy + vz * vz);
+    IF d < 0.001 RETURN FALSE;
+    RETURN Sqrt((uy * vz - uz * vy) * (uy * vz - uz * vy) + (uz * vx - ux * vz) * (uz * vx - ux * vz)
+      + (ux * vy - uy * vx) * (ux * vy - uy * vx)) / d >= 0.001;
+  ENDFUNC
+
   ! Checks and accepts a motion (MJ, ML, RW); RunMotion (from main) executes it.
   FUNC string Motion(string c)
     VAR num m;
     VAR num a;
     VAR num v{6};
+    VAR robtarget start;
     IF (c = "MJ" AND nf <> 8) OR (c = "ML" AND nf <> 2) OR (c = "RW" AND nf <> 3) RETURN "ER 12 bad arguments to " + c;
     IF NOT IntArg(2, m) RETURN "ER 12 bad arguments to " + c;
     IF m < 1 RETURN "ER 12 bad arguments to " + c;
@@ -516,6 +570,17 @@ MODULE SGSERVER
       ENDFOR
       FOR i FROM 2 TO path_n + 1 DO
         IF NOT Reachable(slots{i}) RETURN "ER 30 path point " + NumToStr(i - 1, 0) + " unreachable";
+      ENDFOR
+      ! a circle starts at the point before it (for point 1: where the robot is)
+      start := CRobT(\Tool:=sgtool \WObj:=wobj0);
+      FOR i FROM 2 TO path_n + 1 DO
+        IF havecirc{i} THEN
+          IF NOT MakesCircle(start.trans, circs{i}.trans, slots{i}.trans) RETURN "ER 12 circle point " + NumToStr(i - 1, 0) + " makes no circle";
+          circs{i}.rot := slots{i}.rot;
+          circs{i}.robconf := slots{i}.robconf;
+          circs{i}.extax := slots{i}.extax;
+        ENDIF
+        start := slots{i};
       ENDFOR
       arc := a;
     ENDIF
@@ -601,14 +666,21 @@ MODULE SGSERVER
         Event "IP " + NumToStr(mid, 0);
       ENDIF
     ELSE
-      ! the weld: a MoveL per point; the program runs about one point ahead of the robot,
-      ! so point i - 1 is reached when MoveL to point i returns. Requests are served
-      ! between points, so AB stops the weld within one segment.
+      ! the weld: a MoveL (or a MoveC where the point has a circle point) per point; the
+      ! program runs about one point ahead of the robot, so point i - 1 is reached when
+      ! the move to point i returns. Requests are served between points, so AB stops the
+      ! weld within one segment.
       IF arc = 1 SetDO doWeld, 1;
       i := 1;
       WHILE i <= path_n AND mstate = "R" DO
         IF i = path_n THEN
-          MoveL slots{i + 1}, sgspeed, fine, sgtool \WObj:=wobj0;
+          IF havecirc{i + 1} THEN
+            MoveC circs{i + 1}, slots{i + 1}, sgspeed, fine, sgtool \WObj:=wobj0;
+          ELSE
+            MoveL slots{i + 1}, sgspeed, fine, sgtool \WObj:=wobj0;
+          ENDIF
+        ELSEIF havecirc{i + 1} THEN
+          MoveC circs{i + 1}, slots{i + 1}, sgspeed, sgzone, sgtool \WObj:=wobj0;
         ELSE
           MoveL slots{i + 1}, sgspeed, sgzone, sgtool \WObj:=wobj0;
         ENDIF
