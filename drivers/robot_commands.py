@@ -14,7 +14,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from controller.errors import ConfigError, InputError, SafetyError
-from controller.geometry.kinematics import check_joint_limits, flange_pose, irb2400, solve_ik
+from controller.geometry.kinematics import (
+    check_joint_limits,
+    flange_pose,
+    irb2400,
+    solve_ik,
+    solve_ik_near,
+)
 from controller.geometry.poses import check_pose, invert
 from controller.geometry.segment_motion import circle_through, segment_poses
 
@@ -189,8 +195,8 @@ class PathTargets:
                 for P in arc:
                     limits.check_point(P[:3, 3], f"the circle to {name}")
                 mid = arc[_ARC_SAMPLES // 2] @ T_tcp_flange
-                near = solve_ik(irb2400(), mid, near_deg=near, name=f"the circle to {name}")
-            near = solve_ik(irb2400(), T @ T_tcp_flange, near_deg=near, name=name)
+                near = solve_ik_near(irb2400(), mid, near, name=f"the circle to {name}")
+            near = solve_ik_near(irb2400(), T @ T_tcp_flange, near, name=name)
 
 
 @dataclass(frozen=True)

@@ -83,7 +83,9 @@ def worst_case_messages() -> list[tuple[str, int, str]]:
     q = codec.fmt_quat([0.707107, -0.707107, -0.707107, -0.707107])
     p = codec.fmt_position([-9999.999] * 3)
     bodies_q = ["HI 999", "ID", "RJ", "RP", "RQ", f"TP {p}", f"TO {q}", "SV 1000.0 200.0",
-                f"XP 9999 {p}", f"XO 9999 {q}", "XR 9999", "PN 9999", f"MJ 9999 {j}", "ML 9999",
+                f"XP 9999 {p}", f"XO 9999 {q}", "XR 9999", f"XC 9999 {p}", "PN 9999",
+                *codec.target_bodies(9999, [-9999.999] * 3, [0.5, -0.5, -0.5, -0.5]),
+                f"MJ 9999 {j}", "ML 9999",
                 "RW 9999 1", "AB", "ST", "CK"]
     bodies_a = ["OK 9999 9999 R", "OK SGRS 1 IRB2400 9999", f"OK {j}", f"OK {p}", f"OK {q}",
                 "OK 9999", "OK", "OK 1 1 9999 R 9999 99 ABCDEFGHIJKLMNOP",

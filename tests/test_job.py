@@ -70,3 +70,18 @@ def test_teach_view_cli_reads_the_robot(tmp_path, capsys):
     assert job.views[-1].name == "view3"
     assert job.views[-1].joints_deg == (0.0, 0.0, 0.0, 0.0, 30.0, 0.0)  # the mock's home
     assert "view3" in capsys.readouterr().err
+
+
+def test_path_tolerance_is_a_job_setting():
+    from controller.cell.job import job_from_dict
+
+    base = {"name": "j", "views": [], "seam": {"nominal_centre_mm": [1000.0, 0.0, 300.0]}}
+    tol = job_from_dict(base).path_tolerance()
+    assert (tol.position_mm, tol.orientation_deg, tol.spin_deg) == (0.05, 0.2, 2.0)
+    tight = job_from_dict({**base, "path": {"tolerance_mm": 0.02, "spin_deg": 0.2}})
+    assert tight.path_tolerance().position_mm == 0.02
+    assert tight.path_tolerance().spin_deg == 0.2
+    with pytest.raises(ConfigError, match="tolerance_mm"):
+        job_from_dict({**base, "path": {"tolerance_mm": 0.0}})
+    with pytest.raises(ConfigError, match="tolerance_sm"):
+        job_from_dict({**base, "path": {"tolerance_sm": 0.1}})

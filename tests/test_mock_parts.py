@@ -88,7 +88,7 @@ def test_arm_alone_moves_and_reports():
     assert np.allclose(arm.joints_deg, HOME_DEG)
     j1 = np.array([10.0, 0, 0, 0, 30, 0])
     T1 = flange_pose(irb2400(), j1)
-    begin = arm.start(4, "move_joints", [(j1, T1, 0.5)], session=1)
+    begin = arm.start(4, "move_joints", [(j1, T1, 0.5, None)], session=1)
     assert arm.moving and events == []
     begin()
     arm.schedule.run_due(arm.schedule.now)
@@ -100,7 +100,7 @@ def test_arm_alone_faults_at_point_n_with_the_arc_off_first():
     arm, events = _arm(fail_at_point=2)
     T = flange_pose(irb2400(), [0, 10, 0, 0, 60, 0])
     j = np.array([0.0, 10, 0, 0, 60, 0])
-    arm.start(9, "weld", [(j, T, 0.1)] * 3, session=1, arc=True)()
+    arm.start(9, "weld", [(j, T, 0.1, None)] * 3, session=1, arc=True)()
     arm.schedule.run_due(arm.schedule.now)
     assert events == [("PG", 9, 1), ("FL", 9, 40, 2)]
     assert arm.action_log == ["arc_on", "arc_off", "stop"] and not arm.arc_on
@@ -111,7 +111,8 @@ def test_arm_alone_restart_stops_the_arc_and_keeps_the_tool():
     arm, _ = _arm(time_scale=1.0)
     arm.tool = make_pose(t_mm=[0.0, 0.0, 250.0])
     T = flange_pose(irb2400(), [0, 10, 0, 0, 60, 0])
-    arm.start(3, "weld", [(np.array([0.0, 10, 0, 0, 60, 0]), T, 5.0)], session=1, arc=True)()
+    arm.start(3, "weld", [(np.array([0.0, 10, 0, 0, 60, 0]), T, 5.0, None)], session=1,
+              arc=True)()
     assert arm.arc_on
     arm.restart()
     assert not arm.arc_on and not arm.moving and arm.action_log[-2:] == ["arc_off", "restart"]

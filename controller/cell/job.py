@@ -112,14 +112,19 @@ class PathSpec:
     spin_deg: float = 2.0
 
     def __post_init__(self) -> None:
-        self.tolerance()
+        names = {"position_mm": "tolerance_mm", "orientation_deg": "tolerance_deg",
+                 "spin_deg": "spin_deg"}
+        try:
+            self.tolerance()
+        except ConfigError as err:
+            msg = str(err)
+            for fitter_name, key in names.items():
+                msg = msg.replace(f"path tolerance {fitter_name}", f"path.{key}")
+            raise ConfigError(msg) from err
 
     def tolerance(self) -> PathTolerance:
         """The fitter's :class:`PathTolerance` (raises :class:`ConfigError` out of range)."""
-        try:
-            return PathTolerance(self.tolerance_mm, self.tolerance_deg, self.spin_deg)
-        except ConfigError as err:
-            raise ConfigError(f"[path]: {err}") from err
+        return PathTolerance(self.tolerance_mm, self.tolerance_deg, self.spin_deg)
 
 
 @dataclass(frozen=True)

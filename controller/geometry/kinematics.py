@@ -323,6 +323,21 @@ def solve_ik(robot: RobotModel, T_base_flange: ArrayLike, near_deg: ArrayLike | 
     return min(sols, key=lambda j: float(np.max(np.abs(j - ref))))
 
 
+def solve_ik_near(robot: RobotModel, T_base_flange: ArrayLike, near_deg: ArrayLike | None,
+                  name: str = "target", max_step_deg: float = 10.0) -> F64:
+    """:func:`solve_ik` for a pose next to the one ``near_deg`` reaches (a path's next point).
+
+    By continuity (:func:`ik_from`) when that lands within ``max_step_deg`` of ``near_deg`` on
+    every axis, else the full solution set's nearest: the same answer and the same refusals
+    (:class:`ReachabilityError`) as :func:`solve_ik`, in a few Newton steps on a smooth path.
+    """
+    if near_deg is not None:
+        j = ik_from(robot, T_base_flange, near_deg)
+        if j is not None and float(np.max(np.abs(j - np.asarray(near_deg)))) <= max_step_deg:
+            return j
+    return solve_ik(robot, T_base_flange, near_deg=near_deg, name=name)
+
+
 def check_pose_consistency(robot: RobotModel, joints_deg: ArrayLike, T_reported: ArrayLike,
                            tol_mm: float = 0.5, tol_deg: float = 0.1) -> tuple[float, float]:
     """Compare FK of the reported joints with the controller's reported flange pose.

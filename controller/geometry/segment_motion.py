@@ -150,23 +150,28 @@ def _rotations(T0: ArrayLike, T1: ArrayLike, s: F64, circle: Circle | None) -> F
     return np.asarray(A @ R0[None] @ rotvec_to_matrix(s[:, None] * rest[None, :]))
 
 
-def segment_poses(T0: ArrayLike, T1: ArrayLike, s: ArrayLike, via_mm: ArrayLike | None = None
-                  ) -> F64:
+def segment_poses(T0: ArrayLike, T1: ArrayLike, s: ArrayLike, via_mm: ArrayLike | None = None,
+                  circle: Circle | None = None) -> F64:
     """TCP poses (N, 4, 4) at fractions ``s`` of the segment from ``T0`` to ``T1``.
 
-    ``via_mm`` None is a MoveL, else the MoveC circle point (its orientation is not used). Raises
-    :class:`InputError` for a circle point on the line (see :func:`circle_through`).
+    ``via_mm`` None is a MoveL, else the MoveC circle point (its orientation is not used);
+    ``circle`` is its :func:`circle_through` when already known. Raises :class:`InputError` for a
+    circle point on the line (see :func:`circle_through`).
     """
     ss = np.clip(np.atleast_1d(np.asarray(s, dtype=np.float64)), 0.0, 1.0)
     A = np.asarray(T0, dtype=np.float64)
     B = np.asarray(T1, dtype=np.float64)
-    circle = None if via_mm is None else circle_through(A[:3, 3], via_mm, B[:3, 3])
-    if circle is None:
+    if via_mm is not None and circle is None:
+        circle = circle_through(A[:3, 3], via_mm, B[:3, 3])
+    if via_mm is None:
+        circle = None
         pos = (1.0 - ss)[:, None] * A[:3, 3] + ss[:, None] * B[:3, 3]
     else:
+        assert circle is not None
         pos = circle.point(ss)
     rot = _rotations(A, B, ss, circle)
-    out = np.repeat(np.eye(4)[None], len(ss), axis=0)
+    out = np.zeros((len(ss), 4, 4))
+    out[:, 3, 3] = 1.0
     out[:, :3, :3] = rot
     out[:, :3, 3] = pos
     return out

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from controller.errors import ConfigError, InputError
 from controller.geometry.segment_motion import (
+    Circle,
     circle_through,
     cross3,
     matrix_to_rotvec,
@@ -36,8 +37,8 @@ F64 = NDArray[np.float64]
 
 #: Largest arc one MoveC may sweep (deg); ABB allows up to 240, a torch has no use for more.
 MAX_SWEEP_DEG = 180.0
-#: After this many consecutive lengths at which neither a line nor an arc fits, stop trying longer.
-_GIVE_UP_AFTER = 3
+#: Ends tried past the farthest one bisection found (noise makes the fit not strictly monotone).
+_LOOK_PAST = 1
 
 
 @dataclass(frozen=True)
@@ -111,14 +112,14 @@ def axis_spin_deg(Ra: ArrayLike, Rb: ArrayLike) -> tuple[F64, F64]:
     return np.asarray(axis, dtype=np.float64), np.asarray(spin, dtype=np.float64)
 
 
-def _fractions(T0: F64, T1: F64, via: F64 | None, P: F64) -> F64 | None:
+def _fractions(T0: F64, T1: F64, circle: Circle | None, P: F64) -> F64 | None:
     """Fraction of the segment nearest each dense position; None when they run backwards."""
     a, b = T0[:3, 3], T1[:3, 3]
-    if via is None:
+    if circle is None:
         d = b - a
         s = np.clip((P - a) @ d / float(d @ d), 0.0, 1.0)
     else:
-        s = circle_through(a, via, b).fraction_of(P)
+        s = circle.fraction_of(P)
     if np.any(np.diff(s) < -1e-9):
         return None
     return np.asarray(s, dtype=np.float64)
@@ -144,31 +145,29 @@ def deviation(T0: ArrayLike, T1: ArrayLike, via_mm: ArrayLike | None, dense: Arr
     B = np.asarray(T1, dtype=np.float64)
     D = np.asarray(dense, dtype=np.float64)
     via = None if via_mm is None else np.asarray(via_mm, dtype=np.float64)
+    circle = None if via is None else circle_through(A[:3, 3], via, B[:3, 3])
     P, R = D[:, :3, 3], D[:, :3, :3]
-    s = _fractions(A, B, via, P)
+    s = _fractions(A, B, circle, P)
     if s is None:
         return float("inf"), float("inf"), float("inf")
-    at = segment_poses(A, B, s, via)
-    dev_mm = float(np.max(np.linalg.norm(at[:, :3, 3] - P, axis=1)))
-    ax, sp = axis_spin_deg(at[:, :3, :3], R)
-    dev_ax, dev_sp = float(np.max(ax)), float(np.max(sp))
-    if len(D) >= 2:
-        # the segment between the dense points (a quarter, half and three quarters of the way)
-        # against the planned chord there
-        f = np.array([0.25, 0.5, 0.75])
-        sq = (s[:-1, None] + f[None, :] * (s[1:] - s[:-1])[:, None]).ravel()
-        k = np.repeat(np.arange(len(D) - 1), len(f))
-        mid = segment_poses(A, B, sq, via)
-        q = mid[:, :3, 3]
-        c = (P[1:] - P[:-1])[k]
-        cc = np.einsum("ij,ij->i", c, c)
-        t = np.clip(np.einsum("ij,ij->i", q - P[k], c) / np.where(cc > 0, cc, 1.0), 0.0, 1.0)
-        dev_mm = max(dev_mm, float(np.max(np.linalg.norm(P[k] + t[:, None] * c - q, axis=1))))
-        rel = (chord_turns(D) if turns is None else turns)[k]
-        chord_R = np.einsum("nij,njk->nik", R[k], rotvec_to_matrix(t[:, None] * rel))
-        ax, sp = axis_spin_deg(mid[:, :3, :3], chord_R)
-        dev_ax, dev_sp = max(dev_ax, float(np.max(ax))), max(dev_sp, float(np.max(sp)))
-    return dev_mm, dev_ax, dev_sp
+    n = len(D)
+    # the segment at each dense point's nearest fraction, and between the dense points (a
+    # quarter, half and three quarters of the way) against the planned chord there
+    f = np.array([0.25, 0.5, 0.75])
+    sq = (s[:-1, None] + f[None, :] * (s[1:] - s[:-1])[:, None]).ravel()
+    k = np.repeat(np.arange(n - 1), len(f))
+    poses = segment_poses(A, B, np.concatenate([s, sq]), via, circle)
+    at, mid = poses[:n], poses[n:]
+    q = mid[:, :3, 3]
+    c = (P[1:] - P[:-1])[k]
+    cc = np.einsum("ij,ij->i", c, c)
+    t = np.clip(np.einsum("ij,ij->i", q - P[k], c) / np.where(cc > 0, cc, 1.0), 0.0, 1.0)
+    dev_mm = max(float(np.max(np.linalg.norm(at[:, :3, 3] - P, axis=1))),
+                 float(np.max(np.linalg.norm(P[k] + t[:, None] * c - q, axis=1))))
+    rel = (chord_turns(D) if turns is None else turns)[k]
+    chord_R = np.einsum("nij,njk->nik", R[k], rotvec_to_matrix(t[:, None] * rel))
+    ax, sp = axis_spin_deg(poses[:, :3, :3], np.concatenate([R, chord_R]))
+    return dev_mm, float(np.max(ax)), float(np.max(sp))
 
 
 def fit_circle_point(P: F64, axis: F64 | None = None) -> F64 | None:
@@ -216,13 +215,18 @@ def fit_circle_point(P: F64, axis: F64 | None = None) -> F64 | None:
 def _try(D: F64, turns: F64, i: int, j: int, tol: PathTolerance) -> Segment | None:
     """A MoveL from dense pose i to j if it fits, else a MoveC if it fits, else None."""
     sub = D[i:j + 1]
-    dev = deviation(D[i], D[j], None, sub, turns[i:j])
-    if tol.admits(dev):
-        return Segment(D[j].copy(), None, i, j, dev)
+    P = sub[:, :3, 3]
+    chord = P[-1] - P[0]
+    off = np.cross(P - P[0], chord) / max(float(np.linalg.norm(chord)), 1e-12)
+    if float(np.max(np.linalg.norm(off, axis=1))) <= tol.position_mm:  # else no line fits
+        dev = deviation(D[i], D[j], None, sub, turns[i:j])
+        if tol.admits(dev):
+            return Segment(D[j].copy(), None, i, j, dev)
     if j - i < 2:
         return None
     turn = matrix_to_rotvec(D[j][:3, :3] @ D[i][:3, :3].T)
-    for axis in (turn, None):
+    # the plane the torch turns in; the plane of the points only when the torch hardly turns
+    for axis in ((turn,) if np.linalg.norm(turn) > np.radians(0.5) else (None,)):
         via = fit_circle_point(sub[:, :3, 3], axis)
         if via is None:
             continue
@@ -262,7 +266,7 @@ def _farthest(D: F64, turns: F64, i: int, tol: PathTolerance) -> Segment:
             hi = mid
         else:
             good, lo = seg, mid
-    for j in range(lo + 2, min(n, lo + 1 + _GIVE_UP_AFTER)):
+    for j in range(lo + 2, min(n, lo + 2 + _LOOK_PAST)):
         seg = _try(D, turns, i, j, tol)
         if seg is not None:
             good = seg

@@ -21,7 +21,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.errors import ConfigError, InputError, ProtocolError, ReachabilityError
-from controller.geometry.kinematics import check_joint_limits, flange_pose, solve_ik
+from controller.geometry.kinematics import (
+    check_joint_limits,
+    flange_pose,
+    solve_ik,
+    solve_ik_near,
+)
 from controller.geometry.poses import (
     Pose,
     invert,
@@ -258,7 +263,7 @@ class MockServer:
             return
         near = self._slot_joints.get(k - 1, (None, None))[1] if k > 1 else self.arm.current()[0]
         try:
-            j = solve_ik(self.arm.model, T, near_deg=near)
+            j = solve_ik_near(self.arm.model, T, near)
         except ReachabilityError:
             j = None
         self._slot_joints[k] = (self.arm.tool, j)

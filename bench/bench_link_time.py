@@ -1,0 +1,210 @@
+"""Link time and planning time of the benchmark weld cycle, and the path the arm executed.
+
+The benchmark cycle is the dry run's default: scene ``s_curve`` seed 1 ``medium`` (a 180 mm
+S-curve seam), two views, the exact calibration, the job's default path tolerance. It runs as the
+cell runs it (``SimRig``: the real client over a pseudo-terminal) against the mock controller at
+``--baud`` with motion almost instantaneous, so the time spent inside the robot's calls is the
+link time as the client sees it. Printed (one JSON object), all measured in the same run:
+
+* ``link``: bytes to / from the controller and the wire time they take at the baud rate
+  (computed: bytes x 10 bits / baud), and the time measured inside the robot calls of the cycle;
+  beside it the same cycle's link traffic replayed through a fresh mock with the path sent the
+  old way (every dense point, ``XP`` + ``XO``/``XR``) and with the fitted segments;
+* ``executed``: the weld the mock's arm executed (its own motion model, traced every 0.05 mm)
+  against the dense planned path, both ways: the largest distance (mm), torch axis angle and spin
+  about the torch axis (deg), and the whole orientation angle for reference;
+* ``planning``: ``plan_weld`` (inverse kinematics of every target with its reach checks) on the
+  cycle's seam, by continuity (now) and with the full solution set at every target (before), each
+  the median of 5 runs, as milliseconds and as a ratio to one forward kinematics call measured in
+  the same run; and the segment fit's time.
+
+    .venv/bin/python bench/bench_link_time.py                 # 9600 baud, the mock
+    .venv/bin/python bench/bench_link_time.py --backend rapid # SGSERVER.mod in the interpreter
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from controller.cell.dry_run import SimRig  # noqa: E402
+from controller.geometry.kinematics import flange_pose, inverse_kinematics, irb2400  # noqa: E402
+from controller.geometry.poses import invert  # noqa: E402
+from controller.path.path_fit import axis_spin_deg, fit_segments  # noqa: E402
+from controller.path.weld_path import WeldPath, plan_weld  # noqa: E402
+from drivers.robot import open_robot  # noqa: E402
+
+ROBOT_CALLS = ("read_joints", "read_pose", "set_tool", "move_joints", "move_linear",
+               "upload_path", "run_weld", "status", "identify", "abort", "_wait_motion")
+
+
+def timed_robot(robot: Any) -> dict[str, float]:
+    """Wrap the robot's calls (on the instance) to add their wall time to the returned dict."""
+    acc = {"s": 0.0}
+    for name in ROBOT_CALLS:
+        fn = getattr(robot, name)
+
+        def wrapper(*a: Any, _fn: Any = fn, **k: Any) -> Any:
+            t0 = time.perf_counter()
+            try:
+                return _fn(*a, **k)
+            finally:
+                acc["s"] += time.perf_counter() - t0
+
+        setattr(robot, name, wrapper)
+    return acc
+
+
+def to_polyline(points: np.ndarray, poly: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Distance of each point (M, 3) to a polyline (N, 3), its nearest chord and the fraction."""
+    a, ab = poly[:-1], poly[1:] - poly[:-1]
+    L2 = np.einsum("kj,kj->k", ab, ab)
+    out_d, out_k, out_t = [], [], []
+    for chunk in np.array_split(points, max(1, len(points) // 2000)):
+        t = np.clip(np.einsum("mkj,kj->mk", chunk[:, None] - a[None], ab)
+                    / np.where(L2 > 0, L2, 1.0), 0, 1)
+        d = np.linalg.norm(a[None] + t[..., None] * ab[None] - chunk[:, None], axis=2)
+        k = d.argmin(axis=1)
+        out_d.append(d.min(axis=1))
+        out_k.append(k)
+        out_t.append(t[np.arange(len(chunk)), k])
+    return np.concatenate(out_d), np.concatenate(out_k), np.concatenate(out_t)
+
+
+def executed_vs_planned(executed: np.ndarray, dense: np.ndarray) -> dict[str, float]:
+    """Largest deviation of the executed TCP poses from the dense planned poses, both ways."""
+    d, k, t = to_polyline(executed[:, :3, 3], dense[:, :3, 3])
+    R = Rotation.from_matrix(dense[:, :3, :3])
+    rel = (R[:-1].inv() * R[1:]).as_rotvec()
+    planned = (R[k] * Rotation.from_rotvec(t[:, None] * rel[k])).as_matrix()
+    ax, sp = axis_spin_deg(executed[:, :3, :3], planned)
+    whole = (Rotation.from_matrix(executed[:, :3, :3]).inv() * Rotation.from_matrix(planned))
+    back = to_polyline(dense[:, :3, 3], executed[:, :3, 3])[0]
+    return {"max_mm": round(float(max(d.max(), back.max())), 4),
+            "max_torch_axis_deg": round(float(ax.max()), 4),
+            "max_spin_deg": round(float(sp.max()), 4),
+            "max_whole_orientation_deg": round(float(np.degrees(whole.magnitude()).max()), 4)}
+
+
+def replay(path: WeldPath, views: list[np.ndarray], baud: int, dense: bool) -> dict[str, Any]:
+    """The cycle's robot calls again on a fresh mock: the path dense (as before) or fitted."""
+    with open_robot(f"mock://?baud={baud}", timeout_s=60.0) as robot:
+        acc = timed_robot(robot)
+        for v in views:
+            robot.move_joints(v, speed_mm_s=200.0).wait(60.0)
+            robot.read_joints()
+            robot.read_pose()
+        robot.read_joints()
+        robot.set_tool(path.params.T_flange_tcp)
+        robot.move_joints(path.targets[0].joints_deg, speed_mm_s=200.0).wait(60.0)
+        if dense:
+            robot.upload_path([t.T_base_tcp for t in path.targets[1:]])
+        else:
+            robot.upload_path(*path.upload())
+        robot.run_weld(path.params.speed_mm_s).wait(120.0)
+        st = dict(robot.mock.link_stats)
+    total = st["bytes_rx"] + st["bytes_tx"]
+    return {"path_points_sent": len(path.targets) - 1 if dense else len(path.upload()[0]),
+            "bytes_to_controller": int(st["bytes_rx"]),
+            "bytes_from_controller": int(st["bytes_tx"]),
+            "computed_s": round(10.0 * total / baud, 2), "measured_s": round(acc["s"], 2)}
+
+
+def planning_figures(seam_mm: np.ndarray, normal: np.ndarray, params: Any, workspace: Any,
+                     start: np.ndarray, reps: int = 5) -> dict[str, Any]:
+    """plan_weld by continuity against the full solution set per target, as ratios to one FK."""
+    robot = irb2400()
+
+    def full_set() -> None:
+        path = plan_weld(robot, seam_mm, normal, params, workspace, start_joints_deg=start)
+        T_tcp_flange = invert(params.T_flange_tcp)
+        for t in path.targets:  # what every target cost before: the whole solution set
+            inverse_kinematics(robot, t.T_base_tcp @ T_tcp_flange)
+
+    def fk() -> None:
+        for _ in range(100):
+            flange_pose(robot, start)
+
+    def median(fn: Any) -> float:
+        times = []
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        return statistics.median(times)
+
+    plan_weld(robot, seam_mm, normal, params, workspace, start_joints_deg=start)  # warm up
+    t_fk = median(fk) / 100.0
+    t_new = median(lambda: plan_weld(robot, seam_mm, normal, params, workspace,
+                                     start_joints_deg=start))
+    t_full = median(full_set) - t_new  # the full sets alone, the planner's own work taken off
+    path = plan_weld(robot, seam_mm, normal, params, workspace, start_joints_deg=start)
+    weld = [t.T_base_tcp for t in path.weld_targets]
+    t_fit = median(lambda: fit_segments(weld))
+    t_fk2 = median(fk) / 100.0
+    fk_s = 0.5 * (t_fk + t_fk2)
+    return {"targets": len(path.targets), "fk_ms": round(1e3 * fk_s, 3),
+            "continuity_ms": round(1e3 * t_new, 1), "continuity_fk_calls": round(t_new / fk_s),
+            "full_set_ms": round(1e3 * t_full, 1), "full_set_fk_calls": round(t_full / fk_s),
+            "fit_ms": round(1e3 * t_fit, 1), "fit_fk_calls": round(t_fit / fk_s)}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baud", type=int, default=9600)
+    ap.add_argument("--backend", choices=("mock", "rapid"), default="mock")
+    args = ap.parse_args()
+    rig = SimRig(scene_kind="s_curve", seed=1, difficulty="medium", speedup=1e6,
+                 robot_options=f"baud={args.baud}")
+    if args.backend == "rapid":
+        rig.robot_url = rig.robot_url.replace("mock://", "rapid://")
+    with rig:
+        acc = timed_robot(rig.robot)
+        result = rig.cycle(None).run()
+        if not result.ok:
+            print(json.dumps({"status": result.status, "reason": result.reason}))
+            return 1
+        st = dict(rig.mock.link_stats)
+        path = result.path
+        assert path is not None and result.seam is not None
+        out: dict[str, Any] = {"backend": args.backend, "baud": args.baud,
+                               "dense_weld_points": len(path.weld_targets),
+                               "segments": len(path.segments),
+                               "movec": sum(s.via_mm is not None for s in path.segments)}
+        total = st["bytes_rx"] + st["bytes_tx"]
+        out["cycle"] = {"bytes_to_controller": int(st["bytes_rx"]),
+                        "bytes_from_controller": int(st["bytes_tx"]),
+                        "computed_s": round(10.0 * total / args.baud, 2),
+                        "measured_in_robot_calls_s": round(acc["s"], 2)}
+        weld = [e for e in rig.mock.executed if e["kind"] == "weld"]
+        if args.backend == "mock" and weld:
+            segs = weld[-1]["tcp_segments"][1:-1]  # the weld: without approach and depart
+            trace = rig.mock.arm.trace({"tcp_segments": segs}, step_mm=0.05)
+            dense = np.array([t.T_base_tcp for t in path.weld_targets])
+            out["executed"] = executed_vs_planned(trace, dense)
+        views = [np.asarray(v.joints_deg) for v in rig.job.views]
+        job = rig.job
+        normal = np.asarray(job.seam.normal, dtype=np.float64)
+        start = views[-1]  # where the cycle plans from: the robot at the last view
+    if args.backend == "mock":
+        out["replay_dense"] = replay(path, views, args.baud, dense=True)
+        out["replay_segments"] = replay(path, views, args.baud, dense=False)
+    out["planning"] = planning_figures(result.seam.points_mm, normal, job.weld_params(),
+                                       job.workspace(), start)
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
