@@ -115,6 +115,7 @@ def replay(path: WeldPath, views: list[np.ndarray], baud: int, dense: bool) -> d
         robot.run_weld(path.params.speed_mm_s).wait(120.0)
         st = dict(robot.mock.link_stats)
     total = st["bytes_rx"] + st["bytes_tx"]
+    baud = baud or 1_000_000_000  # no wire time
     return {"path_points_sent": len(path.targets) - 1 if dense else len(path.upload()[0]),
             "bytes_to_controller": int(st["bytes_rx"]),
             "bytes_from_controller": int(st["bytes_tx"]),
@@ -200,6 +201,9 @@ def main() -> int:
     if args.backend == "mock":
         out["replay_dense"] = replay(path, views, args.baud, dense=True)
         out["replay_segments"] = replay(path, views, args.baud, dense=False)
+        # the same calls on an infinitely fast line: the client's and the mock's own time
+        out["replay_segments_no_wire"] = replay(path, views, 0, dense=False)
+        out["replay_dense_no_wire"] = replay(path, views, 0, dense=True)
     out["planning"] = planning_figures(result.seam.points_mm, normal, job.weld_params(),
                                        job.workspace(), start)
     print(json.dumps(out, indent=2))

@@ -256,13 +256,13 @@ def inverse_kinematics(robot: RobotModel, T_base_flange: ArrayLike, *,
             continue
         q = np.array([_wrap_pi(a) for a in q])
         base = urdf_to_controller(q)
+        # whole turns of axes 4 and 6 do not move the flange: one FK check for all variants
+        if pose_error(flange_pose(robot, base, check_limits=False), T)[0] > tol_mm:
+            continue
         # Axes 4 and 6 can turn more than one revolution: add every +-360 deg variant.
         for d4, d6 in itertools.product((-360.0, 0.0, 360.0), (-720.0, -360.0, 0.0, 360.0, 720.0)):
             cand = base + np.array([0.0, 0.0, 0.0, d4, 0.0, d6])
             if not within_limits(robot, cand):
-                continue
-            pos_err, _ = pose_error(flange_pose(robot, cand, check_limits=False), T)
-            if pos_err > tol_mm:
                 continue
             if all(np.max(np.abs(cand - f)) > 1e-6 for f in found):
                 found.append(cand)
