@@ -1,12 +1,12 @@
 """Textures of the wide look (drivers/sim/sim_texture.py): rust, and tacks over the gap."""
 
 import numpy as np
+from sim_looks import NEUTRAL
 
 from controller.geometry.camera_model import default_camera
 from drivers.sim.sim_render import RUST_BGR, render, suggest_view_poses
 from drivers.sim.sim_scene import make_scene
 from drivers.sim.sim_texture import textures
-from sim_looks import NEUTRAL
 
 CAM = default_camera().scaled(0.25)
 
