@@ -84,8 +84,13 @@ def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],
 def render_order(groups: dict[str, list[Case]]
                  ) -> list[Case]:
     """All cases, the groups interleaved in proportion to their sizes, held-out groups at twice
-    the pace of the others (a run stopped early has the held-out part furthest along)."""
-    keyed = [((i + 0.5) / len(g) / (2.0 if key.endswith("heldout") else 1.0), k, c)
+    the pace of the others and the held-out pen set at four times (a run stopped early has the
+    held-out part furthest along)."""
+    def pace(key: str) -> float:
+        return 4.0 if key.startswith("pen") and key.endswith("heldout") else (
+            2.0 if key.endswith("heldout") else 1.0)
+
+    keyed = [((i + 0.5) / len(g) / pace(key), k, c)
              for k, (key, g) in enumerate(groups.items()) for i, c in enumerate(g)]
     return [c for _, _, c in sorted(keyed)]
 
