@@ -348,7 +348,8 @@ class WeldCycle:
             self.result.detections.append(det)
             if self.record is not None:
                 self._save_overlay(view.name, image, det)
-            observations.append(ViewObservation(cam, T, det.points_px, view.name))
+            observations.append(ViewObservation(cam, T, det.points_px, view.name,
+                                                getattr(det, "end_kinds", None)))
             self._remaining(t)
         if self.record is not None:
             self.record.note(detections=[
@@ -357,8 +358,17 @@ class WeldCycle:
         seam = locate_seam(observations, self.job.quality, spacing_mm=self.job.seam.spacing_mm,
                            count=self.job.seam.count,
                            nominal_region=(np.asarray(self.job.seam.nominal_centre_mm),
-                                           self.job.seam.nominal_radius_mm))
+                                           self.job.seam.nominal_radius_mm),
+                           clip_unseen_ends=self.job.seam.clip_unseen_ends)
         self.result.seam = seam
+        clipped = [e for e in seam.quality.get("ends", []) if e["status"] == "clipped"]
+        if clipped:
+            note = "; ".join(f"{e['end']} not seen by any view ({'; '.join(e['not_seen'])}): "
+                             f"clipped to the nominal region ({e['clipped_mm']:.1f} mm cut)"
+                             for e in clipped)
+            log.warning("job %s: seam %s", self.job.name, note)
+        if self.record is not None:
+            self.record.note(seam_ends=seam.quality.get("ends", []))
         self._remaining(t)
         self._check_abort()
         return seam

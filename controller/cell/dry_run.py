@@ -36,6 +36,12 @@ log = logging.getLogger(__name__)
 #: controller's home.
 HOME_JOINTS_DEG: tuple[float, ...] = tuple(float(v) for v in MOCK_HOME_DEG)
 
+#: Dry-run scenes beyond the simulator's kinds and presets: ``open_ends`` is the ``tack_open``
+#: preset's long straight seam (460-520 mm, both ends leave both images) without the tack welds
+#: and spatter, for the cycle with cut ends while the detector does not yet bridge tacks.
+EXTRA_SCENES: dict[str, tuple[str, dict[str, Any]]] = {
+    "open_ends": ("straight", {"variety": "tack_open", "look": {"tacks": 0, "spatter": 0}})}
+
 #: The simulated cells: one camera on the wrist, or two fixed cameras with different lenses.
 CELLS = ("wrist", "fixed-stereo")
 
@@ -90,7 +96,7 @@ def view_joints(scene: Any, cell: Any, n: int = 2, near: tuple[float, ...] = HOM
 
 def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False,
                 views: list[dict[str, Any]] | None = None,
-                timeouts: dict[str, float] | None = None) -> Job:
+                timeouts: dict[str, float] | None = None, clip_unseen_ends: bool = False) -> Job:
     """A job for the simulated scene: the views, the nominal seam region and normal, defaults.
 
     ``views`` replaces the views made from ``joints`` (e.g. fixed cameras' views by name).
@@ -107,7 +113,8 @@ def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False,
             for i, j in enumerate(joints)],
         "seam": {"nominal_centre_mm": [round(float(v), 3) for v in centre],
                  "nominal_radius_mm": float(region["radius_mm"]) + 20.0,
-                 "normal": [round(float(v), 6) for v in scene.surface_normal]},
+                 "normal": [round(float(v), 6) for v in scene.surface_normal],
+                 "clip_unseen_ends": clip_unseen_ends},
         "weld": {"confirm": confirm},
     }
     if timeouts:
@@ -140,19 +147,22 @@ class SimRig:
     def __init__(self, *, scene_kind: str = "s_curve", seed: int = 1, difficulty: str = "medium",
                  calibration: str | Path | Calibration | Mapping[str, Any] | None = None,
                  robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
-                 confirm: bool = False, n_views: int = 2, cell: str = "wrist") -> None:
+                 confirm: bool = False, n_views: int = 2, cell: str = "wrist",
+                 clip_unseen_ends: bool = False) -> None:
         from drivers.sim.sim_cell import default_sim_cell
         from drivers.sim.sim_scene import make_scene
 
         if cell not in CELLS:
             raise ConfigError(f"unknown simulated cell {cell!r}; known: {', '.join(CELLS)}")
-        self.scene = make_scene(scene_kind, seed, difficulty)
+        kind, extra = EXTRA_SCENES.get(scene_kind, (scene_kind, {}))
+        self.scene = make_scene(kind, seed, difficulty, **extra)
         self.seed = seed
         self.cell_kind = cell
         self.cell = default_sim_cell()
         self.fixed: Any = None
         # One Calibration (wrist cell), or one per camera name (fixed-stereo cell).
         self.calibration: Any = None
+        self.clip_unseen_ends = clip_unseen_ends
         if cell == "fixed-stereo":
             self._fixed_stereo(calibration, confirm)
         elif isinstance(calibration, Mapping):
@@ -167,7 +177,7 @@ class SimRig:
                                            metadata={"source": "exact simulated cell"})
         if self.fixed is None:
             self.job = dry_run_job(self.scene, view_joints(self.scene, self.cell, n_views),
-                                   confirm)
+                                   confirm, clip_unseen_ends=clip_unseen_ends)
         self.robot_url = f"mock://?seed={seed}&time_scale={1.0 / speedup:g}" + (
             f"&{robot_options}" if robot_options else "")
         self.camera_url = f"sim:?seed={seed}" + (f"&{camera_options}" if camera_options else "")
@@ -199,7 +209,7 @@ class SimRig:
         # parallel in 10-25 s on the 2-core machine; a real camera delivers in milliseconds.
         self.job = dry_run_job(self.scene, [], confirm, views=[
             {"name": name, "camera": name} for name in self.fixed.cameras],
-            timeouts={"capture_s": 120.0})
+            timeouts={"capture_s": 120.0}, clip_unseen_ends=self.clip_unseen_ends)
 
     def __enter__(self) -> SimRig:
         from drivers.cameras import open_camera
@@ -266,7 +276,8 @@ def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_c
                 seed: int = 1, difficulty: str = "medium",
                 calibration: str | Path | Mapping[str, Any] | None = None,
                 robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
-                confirm: bool = False, n_views: int = 2, cell: str = "wrist") -> DryRunReport:
+                confirm: bool = False, n_views: int = 2, cell: str = "wrist",
+                clip_unseen_ends: bool = False) -> DryRunReport:
     """Run one cycle in the simulated cell; the record goes under ``output`` (None: no record).
 
     ``calibration`` is a calibration file to use instead of the cell's exact one (e.g. from a
@@ -277,7 +288,7 @@ def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_c
     """
     rig = SimRig(scene_kind=scene_kind, seed=seed, difficulty=difficulty, calibration=calibration,
                  robot_options=robot_options, camera_options=camera_options, speedup=speedup,
-                 confirm=confirm, n_views=n_views, cell=cell)
+                 confirm=confirm, n_views=n_views, cell=cell, clip_unseen_ends=clip_unseen_ends)
     with rig:
         cycle = rig.cycle(output)
         result = cycle.run()
@@ -297,6 +308,13 @@ def summary_text(rep: DryRunReport) -> str:
     if r.seam is not None:
         lines.append(f"  seam: {r.seam.length_mm:.1f} mm, {len(r.seam.points_mm)} points, "
                      f"coverage {r.seam.quality['coverage']:.1%}")
+        ends = r.seam.quality.get("ends", [])
+        if any(e["status"] != "seen" for e in ends):
+            lines.append("  seam ends: " + "; ".join(
+                f"{e['end']} {e['status']}" + (f" ({e['clipped_mm']:.1f} mm cut; not seen: "
+                                                f"{', '.join(e['not_seen'])})"
+                                                if e["status"] == "clipped" else "")
+                for e in ends))
     if r.path is not None:
         lines.append(f"  weld path: {len(r.path.weld_targets)} weld points + approach/depart, "
                      f"tool offset {r.path.params.tool_offset_mm:.1f} mm")

@@ -64,6 +64,9 @@ class SeamSpec:
     normal: tuple[float, float, float] | None = None
     spacing_mm: float = 2.0
     count: int | None = None
+    #: Where no view sees an end of the seam (it runs out of the images), weld what the views see
+    #: inside the nominal region instead of refusing the seam (default: refuse).
+    clip_unseen_ends: bool = False
 
     def __post_init__(self) -> None:
         if self.nominal_radius_mm <= 0:

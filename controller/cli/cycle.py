@@ -24,7 +24,12 @@ def register(sub: Any) -> None:
     p.add_argument("--output", default="dry-run", help="folder for cycle records "
                    "(default: ./dry-run)")
     p.add_argument("--scene", default="s_curve",
-                   choices=["straight", "arc", "s_curve", "nonplanar"], help="seam shape")
+                   choices=["straight", "arc", "s_curve", "nonplanar", "tack_open", "open_ends"],
+                   help="seam shape; tack_open: a long tack-welded seam whose ends leave both "
+                   "images; open_ends: the same seam without the tack welds")
+    p.add_argument("--clip-unseen-ends", action="store_true",
+                   help="the job allows clipping a seam whose ends no view sees to its nominal "
+                   "region (job key [seam] clip_unseen_ends; default: refuse such a seam)")
     p.add_argument("--seed", type=int, default=1, help="scene seed (default 1)")
     p.add_argument("--difficulty", default="medium", choices=["easy", "medium", "hard"])
     p.add_argument("--calibration", action="append", metavar="[CAMERA=]FILE",
@@ -80,7 +85,8 @@ def _dry_run(args: argparse.Namespace) -> int:
     rep = run_dry_run(args.output, scene_kind=args.scene, seed=args.seed,
                       difficulty=args.difficulty, calibration=calibration,
                       robot_options=args.robot_options, camera_options=args.camera_options,
-                      speedup=args.speedup, cell=args.cell)
+                      speedup=args.speedup, cell=args.cell,
+                      clip_unseen_ends=args.clip_unseen_ends)
     print(summary_text(rep), file=sys.stderr)
     if args.json:
         r = rep.result
@@ -178,14 +184,15 @@ def _locate(args: argparse.Namespace) -> int:
         if args.overlay_dir:
             _save_overlay(Path(args.overlay_dir) / f"{view.name}_overlay.png", image, det)
         obs.append(ViewObservation(calib.camera, camera_pose(view, calib), det.points_px,
-                                   view.name))
+                                   view.name, det.end_kinds))
     limits = job.quality if job else QualityLimits()
     spacing = args.spacing if args.spacing is not None else (job.seam.spacing_mm if job else 2.0)
     count = args.count if args.count is not None else (job.seam.count if job else None)
     region = ((np.asarray(job.seam.nominal_centre_mm), job.seam.nominal_radius_mm)
               if job else None)
     seam = locate_seam(obs, limits, spacing_mm=None if count else spacing, count=count,
-                       nominal_region=region)
+                       nominal_region=region,
+                       clip_unseen_ends=bool(job and job.seam.clip_unseen_ends))
     path = None
     refused: SeamguideError | None = None
     if not args.no_path:

@@ -18,6 +18,12 @@ from controller.errors import InputError, TriangulationError
 from controller.geometry.camera_model import CameraModel
 from controller.stereo.epipolar import match_curves, point_on_polyline, relative_pose
 from controller.stereo.seam_curve import arc_length, resample_curve, smooth_curve
+from controller.stereo.seam_ends import (
+    clip_to_region,
+    judge_ends,
+    unseen_ends_problem,
+    view_end_cut,
+)
 from controller.stereo.triangulate import PolylineDistance, resample_polyline, triangulate_rays
 
 F64 = NDArray[np.float64]
@@ -31,6 +37,9 @@ class ViewObservation:
     T_base_cam: F64
     seam_px: F64
     name: str = "view"
+    #: What each end of ``seam_px`` is (first point first): ``joint_end`` (a real end of the
+    #: joint) or ``image_border`` (the seam leaves the image); None: judged by the border margin.
+    end_kinds: tuple[str, str] | None = None
 
 
 @dataclass(frozen=True)
@@ -86,7 +95,8 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
 def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLimits(),
                 spacing_mm: float | None = 2.0, count: int | None = None,
                 sample_px: float = 2.0,
-                nominal_region: tuple[F64, float] | None = None) -> Seam3D:
+                nominal_region: tuple[F64, float] | None = None,
+                clip_unseen_ends: bool = False) -> Seam3D:
     """Triangulate a seam seen in two or more views; the first view is the reference.
 
     ``spacing_mm`` / ``count`` set the resampling of the output points (see
@@ -95,6 +105,11 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     lie inside that sphere (it catches a wrong curve matched consistently, and gross calibration
     errors that no two-view check can see). Raises :class:`TriangulationError` with the failing
     numbers in ``details``.
+
+    Ends (:mod:`controller.stereo.seam_ends`): each end of the 3D seam must be seen by a view (a
+    ``joint_end`` there). An end no view sees (the seam runs out of the images, or out of the
+    stereo overlap) is clipped to ``nominal_region`` when ``clip_unseen_ends`` (the job allows
+    it) and refused otherwise; ``quality["ends"]`` says which, per end.
     """
     if len(views) < 2:
         raise InputError(f"locating a seam needs at least two views, got {len(views)}")
@@ -150,6 +165,11 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     smooth_good = smooth_curve(s_ref[good_idx], X[good_idx])
     dense = np.column_stack([np.interp(s_ref[span], s_ref[good_idx], smooth_good[:, k])
                              for k in range(3)])
+    ends = judge_ends(views, curves, dense, limits.border_margin_px)
+    unseen = [e for e in ends if not e["seen_by"]]
+    if unseen and clip_unseen_ends and limits.require_ends_in_view and nominal_region is not None:
+        dense, kept = clip_to_region(dense, nominal_region, unseen)
+        span = slice(first + kept[0], first + kept[1])
     reproj = np.full((V, len(dense)), np.nan)
     for k, v in enumerate(views):
         uv = v.camera.project(dense, v.T_base_cam)
@@ -159,9 +179,9 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     in_span[span] = True
     coverage = float((s_ref[last] - s_ref[first]) / max(s_ref[-1], 1e-9))
     degenerate_fraction = float(np.mean(degenerate_any[span] & ~ok[span]))
-    endpoint_gaps = _endpoint_gaps(views, curves, dense, limits.border_margin_px)
+    endpoint_gaps = [e["ray_gap_mm"] if e["status"] == "seen" else 0.0 for e in ends]
     cut = [f"{v.name} ({'start' if e == 0 else 'end'})" for v, c in zip(views, curves, strict=True)
-           for e in (0, -1) if not v.camera.in_image(c[e][None], limits.border_margin_px)[0]]
+           for e in (0, -1) if view_end_cut(v, c, e, limits.border_margin_px)]
     quality = {
         "views": V,
         "points_triangulated": int(ok.sum()),
@@ -175,6 +195,7 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         "angle_deg_median": float(np.nanmedian(angle[span])),
         "endpoint_gap_mm": endpoint_gaps,
         "ends_cut_by_image_border": cut,
+        "ends": ends,
         "length_mm": float(arc_length(dense)[-1]),
     }
     if nominal_region is not None:
@@ -182,36 +203,10 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         quality["distance_from_nominal_mm_max"] = float(
             np.max(np.linalg.norm(dense - centre, axis=1)))
         quality["nominal_radius_mm"] = float(nominal_region[1])
-    _judge(quality, limits, degenerate_any & in_span, dense, s_ref, first, views, details)
+    _judge(quality, limits, degenerate_any & in_span, dense, s_ref, span.start, views, details)
     points = resample_curve(dense, spacing_mm, count)
     return Seam3D(points_mm=points, dense_points_mm=dense, ray_gap_mm=gap_mm,
                   reprojection_px=reproj, angle_deg=angle[span], quality=quality)
-
-
-def _endpoint_gaps(views: list[ViewObservation], curves: list[F64], dense: F64,
-                   margin_px: float) -> list[float]:
-    """Per end of the located seam: how far (mm) any view's end ray passes from the 3D end point.
-
-    End points are real image features (where the seam meets the sheet borders). Matched curve
-    points meet by construction, but the views' end rays only pass through the located ends when
-    every view saw the seam end at the same place *and* the calibration and poses are right: a
-    detection that stopped short, or a wrong hand-eye, shows here. Ends on the image border are
-    not real ends and are skipped.
-    """
-    gaps: list[float] = []
-    for end3d in (dense[0], dense[-1]):
-        worst = 0.0
-        for v, c in zip(views, curves, strict=True):
-            uv = v.camera.project(end3d[None], v.T_base_cam)[0]
-            ends = c[[0, -1]]
-            px = ends[int(np.argmin(np.linalg.norm(ends - uv, axis=1)))]
-            if not v.camera.in_image(px[None], margin_px)[0]:
-                continue
-            o, d = v.camera.pixel_rays(px[None], v.T_base_cam)
-            r = end3d - o
-            worst = max(worst, float(np.linalg.norm(r - np.dot(r, d[0]) * d[0])))
-        gaps.append(worst)
-    return gaps
 
 
 def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_], dense: F64,
@@ -257,12 +252,9 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
                         f"job's nominal seam centre, outside its {q['nominal_radius_mm']:.0f} mm "
                         f"region: another edge was probably taken for the seam, or the part is "
                         f"not where the job expects it")
-    if lim.require_ends_in_view and q["ends_cut_by_image_border"]:
-        where = ", ".join(q["ends_cut_by_image_border"])
-        problems.append(f"the seam runs out of the image in {where}: its end is not seen, so "
-                        f"the seam could be longer than what would be "
-                        f"welded; move that view back or aim it so that the whole seam is in the "
-                        f"image")
+    unseen = [e for e in q["ends"] if e["status"] == "unseen"]
+    if lim.require_ends_in_view and unseen:
+        problems.append(unseen_ends_problem(unseen))
     if q["length_mm"] < lim.min_length_mm:
         problems.append(f"the located seam is only {q['length_mm']:.1f} mm long")
     if problems:

@@ -1,0 +1,108 @@
+"""The ends of a located seam: which views see them, and what to do where none does.
+
+An end of the 3D seam is *seen* by a view when that view's curve ends there at a ``joint_end``
+(a real end of the joint: a sheet border, a plate corner) and the 3D end projects onto it. An end
+is *unseen* when the seam runs out of every image there, or out of the stereo overlap (one view
+cuts it at its border before the other view's joint end): nothing then says where the joint
+really ends, so the seam could be longer than what would be welded. Such an end is refused, or,
+when the job allows it (``[seam] clip_unseen_ends``), the seam is clipped to the job's nominal
+seam region there; ``quality["ends"]`` records which, per end.
+
+An end seen by only one view is not extended by that view's ray alone (no monocular depth): the
+3D seam ends where both views see it, and that end counts as unseen.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+
+JOINT_END = "joint_end"
+IMAGE_BORDER = "image_border"
+
+#: A view's joint end must lie this close (px) to the 3D end's projection to count as seeing it.
+END_MATCH_PX = 12.0
+
+
+def view_end_cut(view: Any, curve: F64, index: int, margin_px: float) -> bool:
+    """True when the view's curve end ``index`` (0 or -1) is not an end of the joint.
+
+    With the detector's end kinds: an ``image_border`` end; without: an end within ``margin_px``
+    of the image border.
+    """
+    kinds = getattr(view, "end_kinds", None)
+    if kinds is not None:
+        return bool(kinds[0 if index == 0 else 1] == IMAGE_BORDER)
+    return not bool(view.camera.in_image(curve[index][None], margin_px)[0])
+
+
+def judge_ends(views: list[Any], curves: list[F64], dense: F64,
+               margin_px: float) -> list[dict[str, Any]]:
+    """Per end of ``dense`` (start, end): the views that see it and why the others do not.
+
+    ``ray_gap_mm`` is the worst distance of a seeing view's end ray from the 3D end. Where no view
+    cuts the end at its image border, every view's end is a real end of the joint and all of them
+    count, however far apart: a wrong calibration or a detection that stopped short then shows as
+    a large gap (judged by ``max_endpoint_gap_mm``), never as an unseen end.
+    """
+    out = []
+    for which, end3d in (("start", dense[0]), ("end", dense[-1])):
+        near, cut = [], []
+        for v, c in zip(views, curves, strict=True):
+            uv = v.camera.project(end3d[None], v.T_base_cam)[0]
+            d = np.linalg.norm(c[[0, -1]] - uv, axis=1)
+            i = int(np.argmin(d))
+            if view_end_cut(v, c, 0 if i == 0 else -1, margin_px):
+                cut.append(v.name)
+            else:
+                near.append((v, c[[0, -1]][i], float(d[i])))
+        seen = near if not cut else [t for t in near if t[2] <= END_MATCH_PX]
+        not_seen = [f"{n}: the seam runs out of the image" for n in cut]
+        not_seen += [f"{v.name}: its joint end lies {d:.0f} px beyond where the seam leaves "
+                     f"the other views" for v, _, d in near if cut and d > END_MATCH_PX]
+        gap = 0.0
+        for v, px, _ in seen:
+            o, ray = v.camera.pixel_rays(px[None], v.T_base_cam)
+            r = end3d - np.asarray(o).reshape(-1, 3)[0]
+            gap = max(gap, float(np.linalg.norm(r - np.dot(r, ray[0]) * ray[0])))
+        out.append({"end": which, "status": "seen" if seen else "unseen",
+                    "seen_by": [v.name for v, _, _ in seen], "not_seen": not_seen,
+                    "ray_gap_mm": gap})
+    return out
+
+
+def clip_to_region(dense: F64, region: tuple[F64, float],
+                   unseen: list[dict[str, Any]]) -> tuple[F64, tuple[int, int]]:
+    """``dense`` clipped to the nominal sphere (centre mm, radius mm) at its ``unseen`` ends.
+
+    Returns the clipped points and the kept index range [start, stop) into ``dense``; marks each
+    unseen end ``clipped`` with the length cut off (mm). Seen ends are never cut.
+    """
+    centre, radius = np.asarray(region[0], dtype=np.float64), float(region[1])
+    inside = np.linalg.norm(dense - centre, axis=1) <= radius
+    a, b = 0, len(dense)
+    step = np.linalg.norm(np.diff(dense, axis=0), axis=1)
+    for e in unseen:
+        if e["end"] == "start":
+            while a < b - 2 and not inside[a]:
+                a += 1
+            e["clipped_mm"] = float(step[:a].sum())
+        else:
+            while b > a + 2 and not inside[b - 1]:
+                b -= 1
+            e["clipped_mm"] = float(step[b - 1:].sum())
+        e["status"] = "clipped"
+    return dense[a:b], (a, b)
+
+
+def unseen_ends_problem(unseen: list[dict[str, Any]]) -> str:
+    """The refusal for ends no view sees (the job does not allow clipping), naming the views."""
+    parts = [f"its {e['end']} ({'; '.join(e['not_seen'])})" for e in unseen]
+    return (f"no view sees where the seam ends at {' and '.join(parts)}: the seam could be "
+            f"longer than what would be welded. Move the views so that every end of the seam is "
+            f"in the images, or let the job weld what the views see inside its nominal region "
+            f"([seam] clip_unseen_ends = true)")

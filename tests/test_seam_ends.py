@@ -1,0 +1,71 @@
+"""Ends of a located seam: seen, or unseen and then refused or clipped to the nominal region."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from stereo_scenes import CENTRE, camera_poses, observe
+
+from controller.errors import TriangulationError
+from controller.stereo.locate import locate_seam
+
+
+def long_seam(half_mm=250.0, n=5000):
+    """A straight seam 500 mm long: both ends leave both images (they see ~280 mm)."""
+    s = np.linspace(-1, 1, n)
+    return CENTRE + np.column_stack([0 * s, half_mm * s, 0 * s])
+
+
+def with_kinds(obs, kinds):
+    return [dataclasses.replace(o, end_kinds=k) for o, k in zip(obs, kinds, strict=True)]
+
+
+def test_ends_leaving_every_image_are_refused_with_the_reason():
+    P = long_seam()
+    obs = with_kinds(observe(P, camera_poses(P), step=2), [("image_border",) * 2] * 2)
+    with pytest.raises(TriangulationError) as info:
+        locate_seam(obs, nominal_region=(CENTRE, 120.0))
+    msg = str(info.value)
+    assert "no view sees where the seam ends at its start" in msg and "and its end" in msg
+    assert "view1: the seam runs out of the image" in msg and "clip_unseen_ends" in msg
+
+
+def test_ends_leaving_every_image_are_clipped_when_allowed():
+    P = long_seam()
+    obs = with_kinds(observe(P, camera_poses(P), step=2), [("image_border",) * 2] * 2)
+    seam = locate_seam(obs, nominal_region=(CENTRE, 120.0), clip_unseen_ends=True)
+    ends = seam.quality["ends"]
+    assert [e["status"] for e in ends] == ["clipped", "clipped"]
+    assert all(e["clipped_mm"] > 5.0 for e in ends)
+    d = np.linalg.norm(seam.dense_points_mm - CENTRE, axis=1)
+    assert d.max() <= 120.0 and seam.length_mm > 230.0
+    err = np.abs(seam.dense_points_mm[:, [0, 2]] - CENTRE[[0, 2]]).max()
+    assert err < 0.01
+    # Clipping needs a region to clip to; without one the seam is refused.
+    with pytest.raises(TriangulationError, match="no view sees"):
+        locate_seam(obs, clip_unseen_ends=True)
+
+
+def test_real_ends_are_seen_and_never_clipped():
+    P = long_seam(half_mm=100.0)
+    obs = with_kinds(observe(P, camera_poses(P), step=2), [("joint_end",) * 2] * 2)
+    seam = locate_seam(obs, nominal_region=(CENTRE, 150.0), clip_unseen_ends=True)
+    assert [e["status"] for e in seam.quality["ends"]] == ["seen", "seen"]
+    assert [e["seen_by"] for e in seam.quality["ends"]] == [["view1", "view2"]] * 2
+    assert abs(seam.length_mm - 200.0) < 1.0
+
+
+def test_an_end_cut_by_one_view_is_not_taken_from_the_other_alone():
+    P = long_seam(half_mm=100.0)
+    obs = observe(P, camera_poses(P), step=2)
+    # view 2 loses the seam's last 40 mm at its (pretend) border; view 1 sees the real end.
+    uv = obs[1].seam_px
+    keep = len(uv) - int(0.2 * len(uv))
+    obs = [dataclasses.replace(obs[0], end_kinds=("joint_end", "joint_end")),
+           dataclasses.replace(obs[1], seam_px=uv[:keep],
+                               end_kinds=("joint_end", "image_border"))]
+    with pytest.raises(TriangulationError) as info:
+        locate_seam(obs, nominal_region=(CENTRE, 150.0))
+    msg = str(info.value)
+    assert "view2: the seam runs out of the image" in msg
+    assert "view1: its joint end lies" in msg
