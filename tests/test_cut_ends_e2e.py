@@ -1,30 +1,43 @@
 """The cycle with cut ends: a long seam whose ends leave both images (the dry run's open_ends).
 
 The job decides: clip to the nominal region (DONE, the record says which ends were clipped) or
-refuse (FAULT with the reason, nothing welded).
+refuse (FAULT with the reason, nothing welded). State timeouts are relaxed: this seam is twice
+the usual length and the test must not depend on the machine's load.
 """
+
+import dataclasses
 
 import pytest
 
 from controller.cell.cycle_record import read_record
-from controller.cell.dry_run import run_dry_run
+from controller.cell.dry_run import SimRig
+from controller.cell.job import TimeoutsSpec
 
 pytestmark = pytest.mark.slow
 
 
+def run(tmp_path, clip):
+    with SimRig(scene_kind="open_ends", seed=2, speedup=200.0, clip_unseen_ends=clip) as rig:
+        rig.job = dataclasses.replace(rig.job, timeouts=TimeoutsSpec(
+            capture_s=600.0, locate_s=600.0, plan_s=600.0))
+        cycle = rig.cycle(tmp_path)
+        rep = rig.report(cycle.run(), cycle)
+        welds = [e for e in rig.mock.executed if e["kind"] == "weld"]
+    return rep, welds
+
+
 @pytest.mark.parametrize("clip", [True, False])
 def test_open_ends_clipped_or_refused(tmp_path, clip):
-    rep = run_dry_run(tmp_path, scene_kind="open_ends", seed=2, speedup=200.0,
-                      clip_unseen_ends=clip)
+    rep, welds = run(tmp_path, clip)
     r = rep.result
     doc = read_record(r.record_path)
     if clip:
         assert r.status == "done", r.reason
         assert [e["status"] for e in doc["seam_ends"]] == ["clipped", "clipped"]
         assert all("runs out of the image" in " ".join(e["not_seen"]) for e in doc["seam_ends"])
-        assert rep.seam_rms_mm <= 0.1
+        assert rep.seam_rms_mm <= 0.1 and len(welds) == 1
     else:
         assert r.status == "fault"
         assert "no view sees where the seam ends" in r.reason and "clip_unseen_ends" in r.reason
         assert doc["details"]["error"] == "TriangulationError"
-        assert rep.arc_on_after is False
+        assert rep.arc_on_after is False and welds == []
