@@ -68,12 +68,21 @@ def _broken(tmp_path, calib, mutate):
     (lambda d: d.update(distortion_model="fisheye"), "distortion_model"),
     (lambda d: d.update(image_height=0), "image_height"),
     (lambda d: d.update(camera_pose=d["hand_eye"]), "hand_eye/camera_pose"),
+    # the bottom row of K must be 0 0 1, and K[1, 0] zero (a transposed matrix is caught)
+    (lambda d: d["camera_matrix"]["data"].__setitem__(8, 2.0), "camera_matrix"),
+    (lambda d: d["camera_matrix"]["data"].__setitem__(6, 0.5), "camera_matrix"),
+    (lambda d: d["camera_matrix"]["data"].__setitem__(7, 0.5), "camera_matrix"),
+    (lambda d: d["camera_matrix"]["data"].__setitem__(3, 0.5), "camera_matrix"),
+    (lambda d: d["hand_eye"]["translation_mm"].__setitem__(1, float("nan")),
+     "hand_eye.translation_mm"),
+    (lambda d: d["hand_eye"]["translation_mm"].__setitem__(2, float("inf")),
+     "hand_eye.translation_mm"),
 ])
 def test_invalid_file_names_key_and_file(tmp_path, calib, mutate, key):
     p = _broken(tmp_path, calib, mutate)
     with pytest.raises(CalibrationError) as info:
         load_calibration(p)
-    assert key in str(info.value) and str(p) in str(info.value)
+    assert f"{key}:" in str(info.value) and str(p) in str(info.value)
 
 
 def test_missing_and_non_yaml_files(tmp_path):

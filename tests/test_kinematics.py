@@ -13,6 +13,7 @@ from controller.geometry.kinematics import (
     irb2400,
     solve_ik,
     urdf_to_controller,
+    within_limits,
 )
 from controller.geometry.poses import (
     make_pose,
@@ -135,6 +136,21 @@ def test_joints_outside_limits_refused(robot, joints, axis):
     with pytest.raises(JointLimitError, match=f"axis {axis}") as info:
         flange_pose(robot, joints)
     assert info.value.details["axis"] == axis
+
+
+@pytest.mark.parametrize("axis", range(6))
+@pytest.mark.parametrize("side", [0, 1])
+def test_every_joint_limit_is_inclusive_and_refused_just_past(robot, axis, side):
+    bound = robot.limits_deg[axis, side]
+    j = np.zeros(6)
+    j[axis] = bound
+    flange_pose(robot, j)  # at the limit: allowed
+    assert within_limits(robot, j)
+    j[axis] = bound + (1e-6 if side else -1e-6)
+    assert not within_limits(robot, j)
+    with pytest.raises(JointLimitError, match=f"axis {axis + 1} ") as info:
+        flange_pose(robot, j)
+    assert info.value.details["axis"] == axis + 1
 
 
 @pytest.mark.parametrize("joints", [[0, 0, 0, 0, 0], [0] * 7, [0, 0, float("nan"), 0, 0, 0]])

@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from stereo_scenes import camera_poses, observe, seam_curve
+from stereo_scenes import CENTRE, camera_poses, observe, seam_curve
 
 from controller.errors import InputError, TriangulationError
 from controller.geometry.poses import make_pose, rotation_about
@@ -105,3 +105,57 @@ def test_bad_input():
     bad = ViewObservation(obs[1].camera, obs[1].T_base_cam, np.array([[1.0, 2.0]]), "bad")
     with pytest.raises(InputError, match="bad"):
         locate_seam([obs[0], bad])
+
+
+# ---- each quality gate, tripped alone by a scene built for it --------------------------------
+# Every test asserts that the gate's own problem is the only one raised and that the same scene
+# passes with that one limit relaxed: switching the gate off must fail the test.
+
+def only_problem(obs, limits=QualityLimits()):
+    with pytest.raises(TriangulationError) as info:
+        locate_seam(obs, limits=limits)
+    problems = info.value.details["problems"]
+    assert len(problems) == 1, problems
+    return problems[0], info.value.details["quality"]
+
+
+def test_views_too_close_together_trip_the_ray_angle_gate_alone():
+    P = seam_curve("s_curve")
+    obs = observe(P, camera_poses(P, baseline_mm=40.0))  # 6.6 deg between the rays
+    problem, q = only_problem(obs)
+    assert "too similar directions" in problem
+    assert 6.0 < q["angle_deg_min"] < QualityLimits().min_angle_deg
+    locate_seam(obs, limits=QualityLimits(min_angle_deg=6.0))
+
+
+def test_rays_of_three_noisy_views_missing_each_other_trip_the_ray_gap_gate_alone():
+    P = seam_curve("s_curve")
+    poses = camera_poses(P)
+    poses.append(camera_poses(P, along=np.array([0, 1.0, 0]))[0])
+    obs = observe(P, poses, noise_px=0.5, seed=2)  # reprojection stays under 1 px RMS / 4 px
+    problem, q = only_problem(obs)
+    assert "rays miss each other" in problem
+    assert QualityLimits().max_ray_gap_mm < q["ray_gap_mm_max"] < 0.6
+    locate_seam(obs, limits=QualityLimits(max_ray_gap_mm=0.6))
+
+
+def test_a_seam_longer_than_the_image_trips_the_border_gate_alone():
+    s = np.linspace(-1, 1, 6000)
+    P = np.column_stack([0 * s, 400 * s, 0 * s]) + CENTRE  # 800 mm: runs out of both images
+    obs = observe(P, camera_poses(P))
+    problem, q = only_problem(obs)
+    assert "runs out of the image" in problem
+    assert len(q["ends_cut_by_image_border"]) == 4
+    locate_seam(obs, limits=QualityLimits(require_ends_in_view=False))
+
+
+def test_a_seam_seen_in_part_by_one_view_trips_the_coverage_gate():
+    # An unmatched end of the reference curve is a real end in the image, so the end-point gap
+    # always trips with coverage: it is relaxed here to see the coverage gate on its own.
+    P = seam_curve("s_curve")
+    obs = observe(P, camera_poses(P))
+    short = obs[1].seam_px[: int(0.8 * len(obs[1].seam_px))]
+    obs = [obs[0], ViewObservation(obs[1].camera, obs[1].T_base_cam, short, "view2")]
+    problem, q = only_problem(obs, QualityLimits(max_endpoint_gap_mm=1e9))
+    assert "only 79% of the seam was matched" in problem
+    locate_seam(obs, limits=QualityLimits(max_endpoint_gap_mm=1e9, min_coverage=0.75))
