@@ -138,6 +138,35 @@ def test_bad_views_named_and_left_out():
     assert pose_error(r.closed_form["tsai"], X)[0] > pose_error(r.T_flange_cam, X)[0]
 
 
+def test_too_many_bad_views_refuse_the_calibration_and_name_them():
+    names = [f"v{i}" for i in range(10)]
+    A, obs, (X, _) = session(n=10, bad=(1, 4, 7))  # 3 of 10: within 34 %, left out
+    r = solve_hand_eye(A, obs, CAM, names=names)
+    assert sorted(x["view"] for x in r.rejected_views) == ["v1", "v4", "v7"]
+    assert pose_error(r.T_flange_cam, X)[0] < 0.25
+    A, obs, _ = session(n=10, bad=(1, 4, 7, 8))  # 4 of 10: the session is refused
+    with pytest.raises(CalibrationError, match=r"too many bad views \(") as e:
+        solve_hand_eye(A, obs, CAM, names=names)
+    assert sorted(x["view"] for x in e.value.details["rejected_views"]) == ["v1", "v4", "v7",
+                                                                           "v8"]
+    assert "6 of 10 views are left" in str(e.value)
+
+
+def test_too_many_inconsistent_board_poses_refuse_the_pose_only_calibration():
+    A, obs, (X, Y) = session(n=10, noise_px=0, sigma_mm=0.02, sigma_deg=0.005)
+
+    def board_poses(bad):
+        T_cb = [invert(X) @ invert(a) @ Y for a in A]
+        for i in bad:  # the board seen 10 mm / 2 deg away from where the others put it
+            T_cb[i] = T_cb[i] @ make_pose(rotation_about([0, 1, 0], np.radians(2)), [10.0, 0, 0])
+        return T_cb
+
+    r = solve_hand_eye(A, board_poses((1, 4, 7)), None)
+    assert sorted(x["view"] for x in r.rejected_views) == ["view02", "view05", "view08"]
+    with pytest.raises(CalibrationError, match=r"too many inconsistent poses \(view"):
+        solve_hand_eye(A, board_poses((1, 4, 7, 8)), None)
+
+
 def test_refine_intrinsics():
     A, obs, (X, Y) = session(n=16, seed=2)
     K = CAM.K.copy()

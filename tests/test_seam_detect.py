@@ -117,6 +117,38 @@ def test_two_similar_seams_are_ambiguous_and_roi_or_hint_resolves(cases):
     assert dist_to_polyline(det.points_px, truth).max() < 2.0
 
 
+def with_a_fainter_twin(img, lighten):
+    """``img`` beside a copy whose gap is lightened by ``lighten`` (0..1): a weaker second seam."""
+    f = img.astype(np.float64)
+    dark = f < 0.7 * np.median(f)
+    faint = np.clip(f + lighten * (f.max() - f) * dark, 0, 255).astype(np.uint8)
+    return np.hstack([img, faint])
+
+
+def test_ambiguity_threshold_at_its_edge(cases):
+    img = cases["straight"].image
+    w = img.shape[1]
+    never = DetectParams(ambiguity_ratio=1.01)  # a ratio is at most 1: never ambiguous
+    close = with_a_fainter_twin(img, 0.2)
+    r = detect_seam(close, params=never).stats["second_best_ratio"]
+    # Between the default 0.6 and 0.95: a threshold raised that far would pass it.
+    assert 0.65 < r < 0.9, r
+    with pytest.raises(AmbiguousSeam, match=f"ratio {r:.2f}"):
+        detect_seam(close)
+    with pytest.raises(AmbiguousSeam):
+        detect_seam(close, params=DetectParams(ambiguity_ratio=r))  # at the threshold: refused
+    det = detect_seam(close, params=DetectParams(ambiguity_ratio=r + 1e-6))
+    assert det.points_px[:, 0].max() < w  # the stronger, untouched seam
+    assert det.stats["second_best_ratio"] == r
+    # A clearly weaker second seam (ratio under 0.6) is no reason to refuse with the defaults.
+    far = with_a_fainter_twin(img, 0.3)
+    r_far = detect_seam(far, params=never).stats["second_best_ratio"]
+    assert 0.3 < r_far < 0.58, r_far
+    assert detect_seam(far).points_px[:, 0].max() < w
+    with pytest.raises(AmbiguousSeam):
+        detect_seam(far, params=DetectParams(ambiguity_ratio=r_far))
+
+
 def test_bad_inputs():
     img = np.zeros((100, 100), np.float32)
     with pytest.raises(InputError, match="uint8"):
