@@ -5,6 +5,9 @@ record, and no weld command sent after the fault.
 """
 
 
+import threading
+import time
+
 import cv2
 import numpy as np
 import pytest
@@ -12,7 +15,7 @@ from shared_data import CHESSBOARD, needs
 
 from calibration.calibration_file import Calibration
 from controller.cell.cycle_record import read_record
-from controller.cell.dry_run import SimRig, run_dry_run
+from controller.cell.dry_run import HOME_JOINTS_DEG, SimRig, run_dry_run
 from controller.errors import CameraError
 from controller.geometry.poses import make_pose
 
@@ -24,13 +27,18 @@ def welds(mock):
     return [e for e in mock.executed if e["kind"] == "weld"]
 
 
-def assert_safe_fault(rig, result, reason_part, weld_allowed=False):
+def assert_safe_fault(rig, result, reason_part, weld_allowed=False, safe_pose=True):
+    """Fault with ``reason_part`` in the reason; arc off, nothing running, at the safe pose."""
+    assert reason_part, "give the reason expected: an empty one is always in the reason"
     assert result.status == "fault", result.reason
-    assert reason_part.lower() in (result.reason or "").lower()
+    assert reason_part.lower() in (result.reason or "").lower(), result.reason
     assert rig.mock.arc_on is False
-    status = rig.mock.joints_deg  # reading works; the robot is not moving any more
-    assert status is not None
     assert not any(e["result"] == "running" for e in rig.mock.executed)
+    if safe_pose:  # after the fault the cycle moved the robot to the safe pose, last
+        last = rig.mock.executed[-1]
+        assert last["kind"] == "move_joints" and last["result"] == "done"
+        assert np.allclose(last["target"], HOME_JOINTS_DEG)
+        assert np.allclose(rig.mock.joints_deg, HOME_JOINTS_DEG, atol=1e-6)
     if not weld_allowed:
         assert welds(rig.mock) == []
     doc = read_record(result.record_path)
@@ -71,7 +79,8 @@ def test_views_rolled_alike_are_warned_about_in_the_record(tmp_path):
 def test_controller_error_mid_weld(tmp_path):
     with SimRig(robot_options="fail_at_point=5", speedup=200.0) as rig:
         result = rig.cycle(tmp_path).run()
-        assert_safe_fault(rig, result, "", weld_allowed=True)
+        assert_safe_fault(rig, result, "failed (controller error 40) after path point 4",
+                          weld_allowed=True)
         w = welds(rig.mock)
         assert len(w) == 1 and w[0]["result"] == "fault"  # no weld started after the fault
         assert "arc_off" in rig.mock.action_log
@@ -84,8 +93,10 @@ def test_link_corruption_before_the_weld(tmp_path):
                 rig.mock.line.corrupt = 1.0  # the line goes bad for good while view 2 is taken
         result = rig.cycle(tmp_path, on_state=on_state).run()
         rig.mock.line.corrupt = 0.0
-        assert_safe_fault(rig, result, "")
-        assert type(result.error).__name__ in ("LinkError", "ProtocolError", "MotionTimeout")
+        # the next request after the line went bad is the joints read of planning
+        assert type(result.error).__name__ == "LinkError"
+        assert_safe_fault(rig, result, "the link returned nothing usable", safe_pose=False)
+        assert [e["kind"] for e in rig.mock.executed] == ["move_joints"] * 2  # no safe move
 
 
 class FailingCamera:
@@ -122,9 +133,12 @@ def test_no_seam_in_a_real_photograph(tmp_path):
         cam = rig.calibration.camera
         big = cv2.resize(photo, (cam.width, cam.height), interpolation=cv2.INTER_LINEAR)
         result = rig.cycle(tmp_path, camera=ReplacingCamera(rig.camera, lambda n, im: big)).run()
-        assert result.status == "fault"
-        assert type(result.error).__name__ in ("SeamNotFound", "AmbiguousSeam")
-        assert_safe_fault(rig, result, "")
+        reason = {"SeamNotFound": "seam", "AmbiguousSeam": "two seam candidates"}
+        assert type(result.error).__name__ in reason, result.reason
+        assert_safe_fault(rig, result, reason[type(result.error).__name__])
+        if type(result.error).__name__ == "SeamNotFound":
+            assert ("no weld seam found" in result.reason
+                    or "best seam candidate too weak" in result.reason), result.reason
 
 
 def test_ambiguous_seam(tmp_path):
@@ -135,9 +149,8 @@ def test_ambiguous_seam(tmp_path):
 
     with SimRig(speedup=200.0) as rig:
         result = rig.cycle(tmp_path, camera=ReplacingCamera(rig.camera, doubled)).run()
-        assert result.status == "fault"
-        assert type(result.error).__name__ in ("AmbiguousSeam", "TriangulationError")
-        assert_safe_fault(rig, result, "")
+        assert type(result.error).__name__ == "AmbiguousSeam", result.reason
+        assert_safe_fault(rig, result, "two seam candidates of similar strength")
 
 
 def test_bad_triangulation_from_a_wrong_hand_eye(tmp_path):
@@ -160,17 +173,57 @@ def test_unreachable_path(tmp_path):
         assert_safe_fault(rig, result, "workspace")
 
 
+class WeldStarted:
+    """The robot, calling ``then()`` once the controller has accepted the weld (``RW``).
+
+    The mock switches the arc on right after its reply and before it reads the next request, so
+    whatever ``then`` sends to the robot reaches it with the arc on.
+    """
+
+    def __init__(self, robot, then):
+        self._robot, self._then = robot, then
+
+    def __getattr__(self, name):
+        return getattr(self._robot, name)
+
+    def run_weld(self, *args, **kwargs):
+        handle = self._robot.run_weld(*args, **kwargs)
+        self._then()
+        return handle
+
+
+def assert_weld_stopped_with_the_arc_on(mock):
+    """The weld was running with the arc on when the abort (``AB``) reached the controller."""
+    w = welds(mock)
+    assert len(w) == 1 and w[0]["result"] == "aborted", w
+    assert 0 <= w[0]["points_reached"] < w[0]["points"]
+    log = mock.action_log
+    assert log[log.index("arc_on"):][:3] == ["arc_on", "arc_off", "stop"], log
+    assert mock.arc_on is False
+
+
 def test_operator_abort_during_the_weld(tmp_path):
     with SimRig(speedup=20.0) as rig:
         cycle = rig.cycle(tmp_path)
-
-        def on_state(name):
-            if name == "welding":
-                import threading
-
-                threading.Timer(0.0, cycle.request_abort, ("operator pressed abort",)).start()
-        cycle.on_state = on_state
+        cycle.robot = WeldStarted(rig.robot, lambda: threading.Thread(
+            target=cycle.request_abort, args=("operator pressed abort",)).start())
         result = cycle.run()
-        assert result.status == "aborted"
-        assert rig.mock.arc_on is False
+        assert result.status == "aborted" and result.reason == "operator pressed abort"
+        assert_weld_stopped_with_the_arc_on(rig.mock)
+        assert rig.mock.executed[-1]["kind"] == "weld"  # aborted: no motion after the abort
         assert read_record(result.record_path)["status"] == "aborted"
+
+
+def test_a_fault_of_the_pc_while_the_arc_is_on_aborts_then_moves_to_the_safe_pose(tmp_path):
+    # The weld state's time runs out right after the weld started: the cycle itself faults while
+    # the controller is welding. It must abort the robot (arc off, stop) and move to safe.
+    jump = [0.0]
+    with SimRig(speedup=20.0) as rig:
+        cycle = rig.cycle(tmp_path, clock=lambda: time.monotonic() + jump[0])
+        cycle.robot = WeldStarted(rig.robot, lambda: jump.__setitem__(0, 1e6))
+        result = cycle.run()
+        assert type(result.error).__name__ == "CycleTimeout"
+        assert_safe_fault(rig, result, "state welding took longer than its", weld_allowed=True)
+        assert_weld_stopped_with_the_arc_on(rig.mock)
+        kinds = [e["kind"] for e in rig.mock.executed]
+        assert kinds[-2:] == ["weld", "move_joints"]  # the safe move came after the abort

@@ -5,6 +5,7 @@ import pytest
 from transitions.core import MachineError
 
 from controller.cell.cycle_machine import TRANSITIONS, CycleState, build_machine, mermaid_diagram
+from controller.errors import LinkError, SeamguideError
 
 DOC = Path(__file__).parent.parent / "docs" / "cycle.md"
 
@@ -111,3 +112,70 @@ def test_invalid_triggers_are_loud_and_no_auto_transitions():
     m.fault()
     with pytest.raises(MachineError):
         m.start()  # a faulted cycle must be reset before anything else
+
+
+class RecordingRobot:
+    """A robot that records the calls the cycle makes (no link, no motion)."""
+
+    def __init__(self, fail_abort=False):
+        self.calls = []
+        self.fail_abort = fail_abort
+
+    def abort(self):
+        self.calls.append("abort")
+        if self.fail_abort:
+            raise LinkError("simulated: no reply")
+
+    def move_joints(self, joints_deg, speed_mm_s):
+        self.calls.append(("move_joints", tuple(float(v) for v in joints_deg), speed_mm_s))
+        robot = self
+
+        class Handle:
+            def wait(self, timeout_s):
+                robot.calls.append(("wait", timeout_s))
+        return Handle()
+
+
+SAFE = (0.0, 0.0, 0.0, 0.0, 30.0, 0.0)
+
+
+def _cycle(robot):
+    from types import SimpleNamespace
+
+    from controller.cell.cycle import WeldCycle
+
+    job = SimpleNamespace(timeouts=SimpleNamespace(move_s=7.0))
+    return WeldCycle(robot, None, None, job, safe_joints_deg=SAFE)
+
+
+@pytest.mark.parametrize("upto", [None, "start", "arrived", "captured", "located", "planned"])
+def test_entering_fault_aborts_the_robot_then_moves_it_to_the_safe_pose(upto):
+    robot = RecordingRobot()
+    c = _cycle(robot)
+    c.more_views = lambda: False
+    c.needs_confirmation = lambda: False
+    for trig in ("start", "arrived", "captured", "located", "planned") if upto else ():
+        getattr(c, trig)()
+        if trig == upto:
+            break
+    c.fault()
+    assert c.state is CycleState.FAULT
+    assert robot.calls == ["abort", ("move_joints", SAFE, 100.0), ("wait", 7.0)]
+    c._end(CycleState.FAULT, "fault", "again", SeamguideError("again"))
+    assert len(robot.calls) == 3  # made safe once
+
+
+def test_entering_aborted_aborts_the_robot_and_moves_nothing():
+    robot = RecordingRobot()
+    c = _cycle(robot)
+    c.start()
+    c.abort()
+    assert c.state is CycleState.ABORTED and robot.calls == ["abort"]
+
+
+def test_no_safe_move_when_the_abort_did_not_reach_the_robot():
+    robot = RecordingRobot(fail_abort=True)
+    c = _cycle(robot)
+    c.start()
+    c.fault()
+    assert robot.calls == ["abort"]  # the link is down: nothing more is sent

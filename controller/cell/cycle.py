@@ -169,11 +169,13 @@ class WeldCycle:
             self.on_state(name)
         log.info("cycle state: %s", name)
 
-    def on_enter_fault(self) -> None:
+    # transitions names the enter callbacks after the Enum member's *name* (FAULT, ABORTED), not
+    # its value: on_enter_fault was never called, and a fault left the robot as it was.
+    def on_enter_FAULT(self) -> None:
         """Entering fault: make the robot safe before anything else."""
         self._make_safe(move_to_safe_pose=True)
 
-    def on_enter_aborted(self) -> None:
+    def on_enter_ABORTED(self) -> None:
         """Entering aborted: make the robot safe (arc off, stop); no further motion."""
         self._make_safe(move_to_safe_pose=False)
 

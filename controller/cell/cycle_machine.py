@@ -4,7 +4,8 @@ The machine is configured for safety (../shared/STYLE.md lesson 9): Enum states,
 ``to_<state>`` triggers (they would bypass the order below), invalid triggers raise, and the
 machine is locked so an abort from another thread (the daemon's control socket) is serialised with
 the cycle's own transitions. ``fault`` and ``abort`` are allowed from every state; entering either
-makes the robot safe (the model's ``on_enter_fault`` / ``on_enter_aborted``).
+makes the robot safe (the model's ``on_enter_FAULT`` / ``on_enter_ABORTED``: transitions
+names enter callbacks after the Enum member's name).
 
 docs/cycle.md holds the diagram generated from this table by :func:`mermaid_diagram`; a test
 checks that the two agree.
