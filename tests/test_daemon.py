@@ -2,6 +2,7 @@
 
 import contextlib
 import json
+import logging
 import os
 import signal
 import socket
@@ -188,11 +189,45 @@ def test_sigkill_mid_cycle_then_restart(tmp_path):
             p2.kill()
 
 
-def test_sigterm_mid_weld_aborts_with_the_arc_off_and_exits(tmp_path):
+def test_sigterm_mid_weld_aborts_and_exits_cleanly(tmp_path):
     cfg_path, sock, rec = _signal_mid_weld(tmp_path, signal.SIGTERM, 0)
     doc = read_record(rec)
     assert doc["status"] == "aborted" and "SIGTERM" in doc["reason"]
     assert not Path(sock).exists()
+
+
+def test_sigterm_while_the_arc_is_on_stops_the_weld_with_the_arc_off(tmp_path):
+    # In-process, so that the mock controller can be looked at: the daemon's own signal handlers,
+    # a real SIGTERM to this process once the mock has switched the arc on.
+    cfg_path = make_cell(tmp_path / "cell", time_scale=0.05)
+    sock = load_cell_config(cfg_path).control.socket
+    old = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)}
+    d = Daemon(cfg_path)
+    t = threading.Thread(target=d.serve, daemon=True)
+    try:
+        d.install_signal_handlers()
+        t.start()
+        assert d.ready.wait(30), "daemon did not become ready"
+        mock = d.robot.mock
+        assert send_request(sock, {"cmd": "start", "job": "demo"})["ok"]
+        _wait_for(lambda: mock.arc_on, 120, "the arc to go on")
+        os.kill(os.getpid(), signal.SIGTERM)
+        t.join(60)
+        assert not t.is_alive()
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        if t.is_alive():
+            d.request_stop("test over")
+            t.join(60)
+    w = [e for e in mock.executed if e["kind"] == "weld"]
+    assert len(w) == 1 and w[0]["result"] == "aborted", w  # stopped mid-weld, not finished
+    log = mock.action_log
+    assert log[log.index("arc_on"):][:3] == ["arc_on", "arc_off", "stop"], log
+    assert mock.arc_on is False
+    assert mock.executed[-1]["kind"] == "weld"  # no motion after the abort
+    doc = read_record(next((cfg_path.parent / "records").iterdir()))
+    assert doc["status"] == "aborted" and "SIGTERM" in doc["reason"]
 
 
 def test_sighup_reload_between_cycles(running):
@@ -208,8 +243,27 @@ def test_sighup_reload_between_cycles(running):
     assert send_request(sock, {"cmd": "start", "job": "demo2"})["ok"]
     assert d.wait_cycles(1, 120)
     path.write_text("this is = not [valid toml")
-    d._reload.set()
-    assert send_request(sock, {"cmd": "status"})["ok"]  # a bad new file keeps the old one
+    refused = threading.Event()
+
+    class OnRefusal(logging.Handler):
+        def emit(self, record):
+            if "not reloaded, keeping the old one" in record.getMessage():
+                refused.set()
+
+    handler = OnRefusal()
+    logger = logging.getLogger("controller.cell.daemon")
+    logger.addHandler(handler)
+    try:
+        d._reload.set()
+        assert refused.wait(30), "the bad reload was not refused"
+    finally:
+        logger.removeHandler(handler)
+    st = send_request(sock, {"cmd": "status"})  # a bad new file keeps the old configuration
+    assert st["ok"] and st["config_reloads"] == 1
+    assert d.cfg.job("demo2") is not None
+    assert send_request(sock, {"cmd": "start", "job": "demo2"})["ok"]
+    assert d.wait_cycles(2, 120)
+    assert send_request(sock, {"cmd": "status"})["last_cycle"]["job"] == "demo2"
 
 
 def test_operator_confirms_or_rejects_the_weld_path(tmp_path):

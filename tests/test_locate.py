@@ -111,9 +111,9 @@ def test_bad_input():
 # Every test asserts that the gate's own problem is the only one raised and that the same scene
 # passes with that one limit relaxed: switching the gate off must fail the test.
 
-def only_problem(obs, limits=QualityLimits()):
+def only_problem(obs, limits=None):
     with pytest.raises(TriangulationError) as info:
-        locate_seam(obs, limits=limits)
+        locate_seam(obs, limits=limits or QualityLimits())
     problems = info.value.details["problems"]
     assert len(problems) == 1, problems
     return problems[0], info.value.details["quality"]
