@@ -67,9 +67,11 @@ GROUPS = [
           ("tests/test_cycle_machine.py",)),
     Group("abb_codec", "drivers/abb/abb_codec.py", ("checksum", "decode_frame"),
           ("tests/test_abb_codec.py",)),
-    Group("handeye", "calibration/handeye.py", ("solve_hand_eye", "_solve_pose_only"),
-          ("tests/test_handeye.py",),
+    Group("handeye", "calibration/handeye.py", ("solve_hand_eye",), ("tests/test_handeye.py",),
           only_lines=("max_rejected_fraction * n", "score[worst] <= 1.0", "resid > max_rms")),
+    Group("handeye_pose_only", "calibration/handeye_pose_only.py", ("_solve_pose_only",),
+          ("tests/test_handeye.py",),
+          only_lines=("max_rejected_fraction * n", "err[i] > limit", "resid > max_rms")),
     Group("daemon_reload", "controller/cell/daemon.py", ("Daemon._do_reload",),
           ("tests/test_daemon.py::test_sighup_reload_between_cycles",)),
 ]

@@ -5,7 +5,7 @@ import pytest
 from transitions.core import MachineError
 
 from controller.cell.cycle_machine import TRANSITIONS, CycleState, build_machine, mermaid_diagram
-from controller.errors import LinkError, SeamguideError
+from controller.errors import LinkError, SafetyError, SeamguideError
 
 DOC = Path(__file__).parent.parent / "docs" / "cycle.md"
 
@@ -115,19 +115,25 @@ def test_invalid_triggers_are_loud_and_no_auto_transitions():
 
 
 class RecordingRobot:
-    """A robot that records the calls the cycle makes (no link, no motion)."""
+    """A robot that records the calls the cycle makes (no link, no motion).
 
-    def __init__(self, fail_abort=False):
+    ``fail_abort`` / ``fail_move``: the exception that call raises (after being recorded).
+    """
+
+    def __init__(self, fail_abort=None, fail_move=None):
         self.calls = []
         self.fail_abort = fail_abort
+        self.fail_move = fail_move
 
     def abort(self):
         self.calls.append("abort")
-        if self.fail_abort:
-            raise LinkError("simulated: no reply")
+        if self.fail_abort is not None:
+            raise self.fail_abort
 
     def move_joints(self, joints_deg, speed_mm_s):
         self.calls.append(("move_joints", tuple(float(v) for v in joints_deg), speed_mm_s))
+        if self.fail_move is not None:
+            raise self.fail_move
         robot = self
 
         class Handle:
@@ -174,8 +180,44 @@ def test_entering_aborted_aborts_the_robot_and_moves_nothing():
 
 
 def test_no_safe_move_when_the_abort_did_not_reach_the_robot():
-    robot = RecordingRobot(fail_abort=True)
+    robot = RecordingRobot(fail_abort=LinkError("simulated: no reply"))
     c = _cycle(robot)
     c.start()
     c.fault()
     assert robot.calls == ["abort"]  # the link is down: nothing more is sent
+
+
+def test_a_refused_safe_move_is_logged_not_raised():
+    robot = RecordingRobot(fail_move=SafetyError("simulated: outside the box"))
+    c = _cycle(robot)
+    c.start()
+    c.fault()
+    assert c.state is CycleState.FAULT and [x if isinstance(x, str) else x[0]
+                                            for x in robot.calls] == ["abort", "move_joints"]
+
+
+def test_request_abort_from_another_thread_never_raises():
+    robot = RecordingRobot(fail_abort=LinkError("simulated: no reply"))
+    c = _cycle(robot)
+    c.request_abort("operator pressed abort")
+    assert robot.calls == ["abort"] and c._abort.is_set()
+
+
+@pytest.mark.parametrize("dest", [CycleState.FAULT, CycleState.ABORTED])
+def test_end_takes_the_machine_to_its_end_state_and_makes_the_robot_safe(dest):
+    robot = RecordingRobot()
+    c = _cycle(robot)
+    c.start()
+    status = "fault" if dest is CycleState.FAULT else "aborted"
+    c._end(dest, status, "why", SeamguideError("why"))
+    assert c.state is dest and (c.result.status, c.result.reason) == (status, "why")
+    moved = [x for x in robot.calls if not isinstance(x, str) and x[0] == "move_joints"]
+    assert robot.calls[0] == "abort" and len(moved) == (dest is CycleState.FAULT)
+
+
+def test_end_finishes_the_result_even_when_making_safe_hits_a_bug():
+    robot = RecordingRobot(fail_abort=RuntimeError("a bug in the driver"))
+    c = _cycle(robot)
+    c.start()
+    c._end(CycleState.FAULT, "fault", "why", SeamguideError("why"))
+    assert c.result.status == "fault" and robot.calls == ["abort"]
