@@ -7,15 +7,17 @@ into their boundary and their negation, ``and``/``or``, ``not`` added or removed
 that module for each mutant in a scratch copy of the working tree (``PYTHONPATH`` puts it first).
 Survivors are written to ``mutation/survivors.md`` with their diffs.
 
-    .venv/bin/python mutation/run.py [--only GROUP,...] [--timeout S]
+    .venv/bin/python mutation/run.py [--only GROUP,...] [--jobs N] [--timeout S]
 
-Not part of ``make test`` or CI: a full run takes about an hour on the 2-core machine.
+Groups run ``--jobs`` at a time, each in its own copy (a mutant is written into the file). Not
+part of ``make test`` or CI: a full run takes most of an hour on the shared 2-core machine.
 """
 
 from __future__ import annotations
 
 import argparse
 import ast
+import concurrent.futures
 import os
 import re
 import subprocess
@@ -149,6 +151,7 @@ def run_group(copy: Path, g: Group, timeout_s: float) -> tuple[int, int, list[st
     t0 = time.monotonic()
     subprocess.run([*cr, "exec", str(cfg), str(db)], cwd=copy, env=env, check=True)
     secs = time.monotonic() - t0
+    print(f"[{g.name}] done in {secs:.0f} s", flush=True)
     survivors, run, killed = [], 0, 0
     with use_db(str(db), WorkDB.Mode.open) as wdb:
         for item, result in wdb.completed_work_items:
@@ -171,6 +174,7 @@ def main() -> int:
     ap.add_argument("--only", help="comma-separated group names: "
                     + ", ".join(g.name for g in GROUPS))
     ap.add_argument("--timeout", type=float, default=600.0, help="seconds per mutant test run")
+    ap.add_argument("--jobs", type=int, default=3, help="groups run at the same time")
     ap.add_argument("--out", default=str(ROOT / "mutation" / "survivors.md"))
     a = ap.parse_args()
     picked = [g for g in GROUPS if not a.only or g.name in a.only.split(",")]
@@ -178,15 +182,19 @@ def main() -> int:
            "| group | functions | mutants | killed | survived | seconds |",
            "|---|---|---|---|---|---|"]
     details = []
-    with tempfile.TemporaryDirectory(prefix="seamguide-mutation-") as tmp:
-        copy = Path(tmp)
-        copy_tree(copy)
-        for g in picked:
-            run, killed, surv, secs = run_group(copy, g, a.timeout)
-            out.append(f"| {g.name} | {', '.join(g.functions)} | {run} | {killed} | {len(surv)} "
-                       f"| {secs:.0f} |")
-            details += [f"\n## {g.name}\n"] + (surv or ["none\n"])
-            print(out[-1], flush=True)
+
+    def one(g: Group) -> tuple[int, int, list[str], float]:
+        with tempfile.TemporaryDirectory(prefix=f"seamguide-mutation-{g.name}-") as tmp:
+            copy = Path(tmp)
+            copy_tree(copy)
+            return run_group(copy, g, a.timeout)
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, a.jobs)) as pool:
+        results = list(pool.map(one, picked))
+    for g, (run, killed, surv, secs) in zip(picked, results, strict=True):
+        out.append(f"| {g.name} | {', '.join(g.functions)} | {run} | {killed} | {len(surv)} "
+                   f"| {secs:.0f} |")
+        details += [f"\n## {g.name}\n"] + (surv or ["none\n"])
     Path(a.out).write_text("\n".join(out) + "\n" + "\n".join(details))
     return 0
 

@@ -77,6 +77,31 @@ def test_cr_lf_is_accepted_and_long_lines_refused():
         codec.decode_frame(b"A05 " + b"x" * 80 + b"*0000\n")
 
 
+def test_a_line_of_exactly_the_maximum_length_decodes():
+    body = "OK " + "1" * (codec.MAX_LINE - len("A05 OK *0000"))
+    line = codec.encode_frame("A", 5, body)
+    assert len(line) == codec.MAX_LINE + 1  # with its LF
+    assert codec.decode_frame(line).body == body
+
+
+def _signed(head: str) -> bytes:
+    """``head`` with its correct checksum: only the header itself can be wrong."""
+    return f"{head}*{codec.checksum(head)}\n".encode("ascii")
+
+
+@pytest.mark.parametrize("head", ["X05 OK", "Q0a OK", "Qa5 OK", "Q05xOK", "Q05"])
+def test_a_bad_header_with_a_good_checksum_is_refused(head):
+    with pytest.raises(ProtocolError, match="does not start with Q/A/E, two digits and a space"):
+        codec.decode_frame(_signed(head))
+    good = head[0].replace("X", "Q") + "05 OK"
+    assert codec.decode_frame(_signed(good)).seq == 5
+
+
+def test_a_short_line_without_a_star_is_refused_as_such():
+    with pytest.raises(ProtocolError, match="no '\\*' followed by a 4-digit checksum"):
+        codec.decode_frame(b"Q01A\n")
+
+
 def worst_case_messages() -> list[tuple[str, int, str]]:
     """The longest instance of every message the client or the mock can produce."""
     j = codec.fmt_joints([-180, -100, -60, -200, -120, -400])

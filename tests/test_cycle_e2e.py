@@ -39,6 +39,8 @@ def assert_safe_fault(rig, result, reason_part, weld_allowed=False, safe_pose=Tr
         assert last["kind"] == "move_joints" and last["result"] == "done"
         assert np.allclose(last["target"], HOME_JOINTS_DEG)
         assert np.allclose(rig.mock.joints_deg, HOME_JOINTS_DEG, atol=1e-6)
+        # the controller saw the abort (arc off, stop) and then the safe move, in that order
+        assert rig.mock.action_log[-4:] == ["abort", "arc_off", "stop", "start move_joints"]
     if not weld_allowed:
         assert welds(rig.mock) == []
     doc = read_record(result.record_path)
@@ -83,7 +85,9 @@ def test_controller_error_mid_weld(tmp_path):
                           weld_allowed=True)
         w = welds(rig.mock)
         assert len(w) == 1 and w[0]["result"] == "fault"  # no weld started after the fault
-        assert "arc_off" in rig.mock.action_log
+        log = rig.mock.action_log  # the controller's own fault, then the cycle's make-safe
+        assert log[log.index("arc_on"):] == ["arc_on", "arc_off", "stop", "abort", "arc_off",
+                                             "stop", "start move_joints"]
 
 
 def test_link_corruption_before_the_weld(tmp_path):
@@ -193,13 +197,18 @@ class WeldStarted:
 
 
 def assert_weld_stopped_with_the_arc_on(mock):
-    """The weld was running with the arc on when the abort (``AB``) reached the controller."""
+    """The weld was running with the arc on when the abort (``AB``) reached the controller.
+
+    Returns the controller's actions from the arc going on.
+    """
     w = welds(mock)
     assert len(w) == 1 and w[0]["result"] == "aborted", w
     assert 0 <= w[0]["points_reached"] < w[0]["points"]
     log = mock.action_log
-    assert log[log.index("arc_on"):][:3] == ["arc_on", "arc_off", "stop"], log
+    after = log[log.index("arc_on"):]
+    assert after[:4] == ["arc_on", "abort", "arc_off", "stop"], log
     assert mock.arc_on is False
+    return after
 
 
 def test_operator_abort_during_the_weld(tmp_path):
@@ -209,8 +218,8 @@ def test_operator_abort_during_the_weld(tmp_path):
             target=cycle.request_abort, args=("operator pressed abort",)).start())
         result = cycle.run()
         assert result.status == "aborted" and result.reason == "operator pressed abort"
-        assert_weld_stopped_with_the_arc_on(rig.mock)
-        assert rig.mock.executed[-1]["kind"] == "weld"  # aborted: no motion after the abort
+        after = assert_weld_stopped_with_the_arc_on(rig.mock)
+        assert not any(a.startswith("start") for a in after)  # aborted: no motion after it
         assert read_record(result.record_path)["status"] == "aborted"
 
 
@@ -224,6 +233,6 @@ def test_a_fault_of_the_pc_while_the_arc_is_on_aborts_then_moves_to_the_safe_pos
         result = cycle.run()
         assert type(result.error).__name__ == "CycleTimeout"
         assert_safe_fault(rig, result, "state welding took longer than its", weld_allowed=True)
-        assert_weld_stopped_with_the_arc_on(rig.mock)
-        kinds = [e["kind"] for e in rig.mock.executed]
-        assert kinds[-2:] == ["weld", "move_joints"]  # the safe move came after the abort
+        # abort (arc off, stop) first, then the safe move, and nothing else
+        assert assert_weld_stopped_with_the_arc_on(rig.mock) == [
+            "arc_on", "abort", "arc_off", "stop", "start move_joints"]

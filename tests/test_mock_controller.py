@@ -172,7 +172,7 @@ def test_abort_turns_the_arc_off_first():
     assert w.mock.arc_on
     r, ev = w.send("AB")
     assert r.ok and [(e.kind, e.code) for e in ev] == [("FL", 41)]
-    assert w.mock.action_log[-2:] == ["arc_off", "stop"]
+    assert w.mock.action_log == ["start weld", "arc_on", "abort", "arc_off", "stop"]
     assert not w.mock.arc_on and w.mock.executed[-1]["result"] == "aborted"
 
 

@@ -103,7 +103,7 @@ def test_arm_alone_faults_at_point_n_with_the_arc_off_first():
     arm.start(9, "weld", [(j, T, 0.1, None)] * 3, session=1, arc=True)()
     arm.schedule.run_due(arm.schedule.now)
     assert events == [("PG", 9, 1), ("FL", 9, 40, 2)]
-    assert arm.action_log == ["arc_on", "arc_off", "stop"] and not arm.arc_on
+    assert arm.action_log == ["start weld", "arc_on", "arc_off", "stop"] and not arm.arc_on
     assert (arm.status_state, arm.error) == ("F", 40)
 
 

@@ -53,7 +53,8 @@ class MockArm:
         self.model = irb2400()
         #: Every motion or weld started: dicts with mid, kind, session, result, points_reached...
         self.executed: list[dict[str, Any]] = []
-        #: Ordered safety-relevant actions ("arc_on", "arc_off", "stop", "restart", ...).
+        #: Ordered safety-relevant actions: "start <kind>" (a motion accepted), "arc_on",
+        #: "arc_off", "abort" (an abort request, before its "arc_off", "stop"), "stop", "restart".
         self.action_log: list[str] = []
         self._joints = np.array(HOME_DEG)
         self._tool = np.eye(4)  # PERS tooldata on the controller: survives a restart
@@ -156,6 +157,7 @@ class MockArm:
         ``arc=True`` in ``record`` switches the arc on when it begins.
         """
         self.status_mid, self.status_state, self.status_index, self.error = mid, "R", 0, 0
+        self.action_log.append(f"start {kind}")
         entry = {"mid": mid, "kind": kind, "session": session, "result": "running",
                  "points_reached": 0, **record}
         self.executed.append(entry)
@@ -223,8 +225,7 @@ class MockArm:
     def abort(self) -> None:
         """Arc output off first (always written, as SetDO does), then stop the motion (FL 41)."""
         self._arc = False
-        self.action_log.append("arc_off")
-        self.action_log.append("stop")
+        self.action_log += ["abort", "arc_off", "stop"]
         m = self._motion
         if m is not None:
             self._joints = self.current()[0]
