@@ -93,13 +93,14 @@ def _signed(head: str) -> bytes:
 def test_a_bad_header_with_a_good_checksum_is_refused(head):
     with pytest.raises(ProtocolError, match="does not start with Q/A/E, two digits and a space"):
         codec.decode_frame(_signed(head))
-    good = head[0].replace("X", "Q") + "05 OK"
-    assert codec.decode_frame(_signed(good)).seq == 5
+    good = codec.decode_frame(_signed(head[0].replace("X", "Q") + "42 X"))  # shortest: 1 char
+    assert (good.seq, good.body) == (42, "X")
 
 
-def test_a_short_line_without_a_star_is_refused_as_such():
+@pytest.mark.parametrize("line", [b"Q01A\n", b"Q01 OK*123\n", b"Q01 OK*12345\n"])
+def test_a_line_without_a_star_and_four_checksum_digits_is_refused_as_such(line):
     with pytest.raises(ProtocolError, match="no '\\*' followed by a 4-digit checksum"):
-        codec.decode_frame(b"Q01A\n")
+        codec.decode_frame(line)
 
 
 def worst_case_messages() -> list[tuple[str, int, str]]:

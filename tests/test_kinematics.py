@@ -153,6 +153,12 @@ def test_every_joint_limit_is_inclusive_and_refused_just_past(robot, axis, side)
     assert info.value.details["axis"] == axis + 1
 
 
+def test_the_first_axis_out_of_its_limits_is_named(robot):
+    with pytest.raises(JointLimitError, match="axis 2 ") as info:
+        flange_pose(robot, [0, -101, 0, 0, 0, 401])
+    assert info.value.details["axis"] == 2
+
+
 @pytest.mark.parametrize("joints", [[0, 0, 0, 0, 0], [0] * 7, [0, 0, float("nan"), 0, 0, 0]])
 def test_wrong_joint_count_or_nan_refused(robot, joints):
     with pytest.raises(InputError, match="joint"):

@@ -125,7 +125,7 @@ def test_views_too_close_together_trip_the_ray_angle_gate_alone():
     problem, q = only_problem(obs)
     assert "too similar directions" in problem
     assert 6.0 < q["angle_deg_min"] < QualityLimits().min_angle_deg
-    locate_seam(obs, limits=QualityLimits(min_angle_deg=6.0))
+    locate_seam(obs, limits=QualityLimits(min_angle_deg=q["angle_deg_min"]))  # at the limit
 
 
 def test_rays_of_three_noisy_views_missing_each_other_trip_the_ray_gap_gate_alone():
@@ -136,7 +136,7 @@ def test_rays_of_three_noisy_views_missing_each_other_trip_the_ray_gap_gate_alon
     problem, q = only_problem(obs)
     assert "rays miss each other" in problem
     assert QualityLimits().max_ray_gap_mm < q["ray_gap_mm_max"] < 0.6
-    locate_seam(obs, limits=QualityLimits(max_ray_gap_mm=0.6))
+    locate_seam(obs, limits=QualityLimits(max_ray_gap_mm=q["ray_gap_mm_max"]))  # at the limit
 
 
 def test_a_seam_longer_than_the_image_trips_the_border_gate_alone():
@@ -159,3 +159,14 @@ def test_a_seam_seen_in_part_by_one_view_trips_the_coverage_gate():
     problem, q = only_problem(obs, QualityLimits(max_endpoint_gap_mm=1e9))
     assert "only 79% of the seam was matched" in problem
     locate_seam(obs, limits=QualityLimits(max_endpoint_gap_mm=1e9, min_coverage=0.75))
+
+
+def test_a_detection_stopped_short_at_the_far_end_is_caught_at_that_end():
+    P = seam_curve("s_curve")
+    obs = observe(P, camera_poses(P))
+    short = obs[1].seam_px[: int(0.98 * len(obs[1].seam_px))]  # 2 % (4 mm) short at its end
+    obs = [obs[0], ViewObservation(obs[1].camera, obs[1].T_base_cam, short, "view2")]
+    problem, q = only_problem(obs)
+    assert "where the seam ends" in problem
+    start, end = q["endpoint_gap_mm"]
+    assert start < 0.5 < QualityLimits().max_endpoint_gap_mm < end

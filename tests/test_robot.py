@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controller.errors import ConfigError, JointLimitError, SafetyError
-from controller.geometry.kinematics import IRB2400_LIMITS_DEG
+from controller.errors import ConfigError, InputError, JointLimitError, SafetyError
+from controller.geometry.kinematics import IRB2400_LIMITS_DEG, flange_pose, irb2400
 from controller.geometry.poses import make_pose
-from drivers.robot import MoveJoints, MoveLinear, SafetyLimits, ToolData, WeldRun
+from drivers.robot import MoveJoints, MoveLinear, PathTargets, SafetyLimits, ToolData, WeldRun
 
 LIMITS = SafetyLimits(workspace_min_mm=(-1000.0, -800.0, 100.0),
                       workspace_max_mm=(1500.0, 900.0, 1600.0), max_speed_mm_s=200.0)
@@ -58,6 +58,11 @@ def test_a_linear_move_below_the_box_is_refused():
 def test_the_box_itself_is_validated():
     with pytest.raises(ConfigError, match="min < max"):
         SafetyLimits(workspace_min_mm=(0.0, 0.0, 0.0), workspace_max_mm=(1.0, 1.0, 0.0))
+    with pytest.raises(ConfigError, match="3 finite values"):
+        SafetyLimits(workspace_min_mm=(0.0, 0.0), workspace_max_mm=(1.0, 1.0, 1.0))
+    with pytest.raises(ConfigError, match="3 finite values"):
+        SafetyLimits(workspace_min_mm=(0.0, 0.0, 0.0), workspace_max_mm=(1.0, 1.0, 1.0, 1.0))
+    assert SafetyLimits(max_speed_mm_s=0.5).max_speed_mm_s == 0.5  # slow, but a speed
     with pytest.raises(ConfigError, match="min < max"):
         SafetyLimits(workspace_min_mm=(0.0, 0.0, np.nan), workspace_max_mm=(1.0, 1.0, 1.0))
     with pytest.raises(ConfigError, match="max_speed_mm_s"):
@@ -75,3 +80,38 @@ def test_move_joints_at_every_joint_limit_and_just_past_it(axis, side):
     with pytest.raises(JointLimitError, match=f"axis {axis + 1} ") as info:
         MoveJoints(j, 50.0)
     assert info.value.details["axis"] == axis + 1
+
+
+def test_speeds_must_be_positive_however_small():
+    assert MoveJoints(np.zeros(6), 0.5).speed_mm_s == 0.5
+    for bad in (0.0, -0.5, np.nan):
+        with pytest.raises(InputError, match="positive finite speed"):
+            MoveJoints(np.zeros(6), bad)
+
+
+J_VIEW = np.array([0.0, 10.0, 0.0, 0.0, 60.0, 0.0])
+TOOL = ToolData(make_pose(t_mm=[0.0, 0.0, 250.0]))
+
+
+def _box_around(p, half=50.0):
+    return SafetyLimits(workspace_min_mm=tuple(p - half), workspace_max_mm=tuple(p + half))
+
+
+def test_move_joints_checks_where_the_tcp_ends_up():
+    tcp = (flange_pose(irb2400(), J_VIEW) @ TOOL.T_flange_tcp)[:3, 3]
+    MoveJoints(J_VIEW, 50.0).check(_box_around(tcp), TOOL)
+    elsewhere = _box_around(tcp + [0.0, 0.0, 120.0])  # the TCP ends up 70 mm under this box
+    with pytest.raises(SafetyError, match=r"move_joints target \(TCP\)"):
+        MoveJoints(J_VIEW, 50.0).check(elsewhere, TOOL)
+
+
+def test_every_path_point_is_checked_against_the_box():
+    T0 = flange_pose(irb2400(), J_VIEW) @ TOOL.T_flange_tcp
+    path = [T0 @ make_pose(t_mm=[0.0, 2.0 * i, 0.0]) for i in range(5)]
+    box = _box_around(T0[:3, 3], half=30.0)
+    PathTargets(tuple(path)).check(box, TOOL, capacity=10)
+    path[3] = T0 @ make_pose(t_mm=[0.0, 0.0, -40.0])  # 40 mm along the tool axis: out
+    with pytest.raises(SafetyError, match="path point 4 at"):
+        PathTargets(tuple(path)).check(box, TOOL, capacity=10)
+    with pytest.raises(SafetyError, match="buffer holds 4"):
+        PathTargets(tuple(path)).check(box, TOOL, capacity=4)
