@@ -181,21 +181,21 @@ def main() -> int:
     out = ["# Surviving mutants (`make mutation`)\n",
            "| group | functions | mutants | killed | survived | seconds |",
            "|---|---|---|---|---|---|"]
-    details = []
+    details: list[str] = []
 
-    def one(g: Group) -> tuple[int, int, list[str], float]:
+    def one(g: Group) -> None:
         with tempfile.TemporaryDirectory(prefix=f"seamguide-mutation-{g.name}-") as tmp:
             copy = Path(tmp)
             copy_tree(copy)
-            return run_group(copy, g, a.timeout)
-
-    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, a.jobs)) as pool:
-        results = list(pool.map(one, picked))
-    for g, (run, killed, surv, secs) in zip(picked, results, strict=True):
+            run, killed, surv, secs = run_group(copy, g, a.timeout)
         out.append(f"| {g.name} | {', '.join(g.functions)} | {run} | {killed} | {len(surv)} "
                    f"| {secs:.0f} |")
-        details += [f"\n## {g.name}\n"] + (surv or ["none\n"])
-    Path(a.out).write_text("\n".join(out) + "\n" + "\n".join(details))
+        details.extend([f"\n## {g.name}\n"] + (surv or ["none\n"]))
+        # Written after every group: a long run stopped half-way keeps what it found.
+        Path(a.out).write_text("\n".join(out) + "\n" + "\n".join(details))
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, a.jobs)) as pool:
+        list(pool.map(one, picked))
     return 0
 
 
