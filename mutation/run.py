@@ -53,8 +53,9 @@ class Group:
 
 
 GROUPS = [
-    Group("locate", "controller/stereo/locate.py", ("_judge", "_endpoint_gaps"),
-          ("tests/test_locate.py",)),
+    Group("locate", "controller/stereo/locate.py", ("_judge",), ("tests/test_locate.py",)),
+    Group("seam_ends", "controller/stereo/seam_ends.py", ("judge_ends", "view_end_cut"),
+          ("tests/test_locate.py", "tests/test_seam_ends.py")),
     Group("robot_limits", "drivers/robot_commands.py",
           ("SafetyLimits.__post_init__", "SafetyLimits.check_point", "SafetyLimits.check_speed",
            "_speed", "MoveJoints.check", "MoveLinear.check", "PathTargets.check", "WeldRun.check"),
