@@ -70,7 +70,7 @@ GROUPS = [
           ("tests/test_cycle_machine.py",)),
     Group("abb_codec", "drivers/abb/abb_codec.py", ("checksum", "decode_frame"),
           ("tests/test_abb_codec.py",)),
-    Group("handeye", "calibration/handeye.py", ("solve_hand_eye",), ("tests/test_handeye.py",),
+    Group("handeye", "calibration/handeye.py", ("_solve",), ("tests/test_handeye.py",),
           only_lines=("max_rejected_fraction * n", "score[worst] <= 1.0", "resid > max_rms")),
     Group("handeye_pose_only", "calibration/handeye_pose_only.py", ("_solve_pose_only",),
           ("tests/test_handeye.py",),

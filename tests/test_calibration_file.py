@@ -20,6 +20,7 @@ def test_round_trip(tmp_path, calib):
     back = load_calibration(p)
     assert np.allclose(back.camera.K, calib.camera.K)
     assert np.allclose(back.camera.dist, calib.camera.dist)
+    assert (back.camera.width, back.camera.height) == (calib.camera.width, calib.camera.height)
     assert pose_error(back.T_flange_cam, calib.T_flange_cam)[0] < 1e-12
     assert back.metadata["date"] == "2026-11-22"
     doc = yaml.safe_load(p.read_text())
@@ -77,6 +78,13 @@ def _broken(tmp_path, calib, mutate):
      "hand_eye.translation_mm"),
     (lambda d: d["hand_eye"]["translation_mm"].__setitem__(2, float("inf")),
      "hand_eye.translation_mm"),
+    (lambda d: d["hand_eye"]["translation_mm"].__setitem__(0, "a"), "hand_eye.translation_mm"),
+    (lambda d: d["hand_eye"]["translation_mm"].__setitem__(0, None), "hand_eye.translation_mm"),
+    (lambda d: d["camera_matrix"]["data"].__setitem__(4, 0.0), "camera_matrix"),  # fy = 0
+    (lambda d: d["camera_matrix"].pop("data"), "camera_matrix"),
+    (lambda d: d["camera_matrix"].update(rows=2), "camera_matrix"),
+    (lambda d: d.update(image_width=True), "image_width"),
+    (lambda d: d.update(image_width=12.5), "image_width"),
 ])
 def test_invalid_file_names_key_and_file(tmp_path, calib, mutate, key):
     p = _broken(tmp_path, calib, mutate)
@@ -95,3 +103,9 @@ def test_missing_and_non_yaml_files(tmp_path):
     bad.write_text("- just\n- a list\n")
     with pytest.raises(CalibrationError, match="mapping"):
         load_calibration(bad)
+
+
+def test_four_distortion_coefficients_are_plumb_bob_without_k3(tmp_path, calib):
+    p = _broken(tmp_path, calib, lambda d: d["distortion_coefficients"].update(
+        cols=4, data=[0.01, -0.02, 0.0, 0.0]))
+    assert np.allclose(load_calibration(p).camera.dist[:4], [0.01, -0.02, 0.0, 0.0])
