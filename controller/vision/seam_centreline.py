@@ -128,9 +128,12 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
         c.why_rejected = f"gap run only {length:.0f} px long (< {p.min_length_px:.0f})"
         return
     c.length_px = length
-    if c.end_kinds == ("open", "open"):
-        c.why_rejected = (f"dark line of {length:.0f} px fades out inside the sheet at both ends "
-                          "(a pen mark or scratch, not a joint running border to border)")
+    if "open" in c.end_kinds:
+        # A joint ends where a sheet ends or leaves the image; a line that fades out inside a
+        # sheet (the sheet going on beside it) is a pen or soapstone line or a scratch.
+        where = "both ends" if c.end_kinds == ("open", "open") else "one end"
+        c.why_rejected = (f"dark line of {length:.0f} px fades out inside the sheet at {where} "
+                          "(a pen line or scratch, not a joint)")
         return
     c.score = length * c.depth * c.valid_frac
 

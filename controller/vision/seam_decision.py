@@ -2,20 +2,69 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_params import F64, Candidate
+from controller.errors import AmbiguousSeam, SeamNotFound
+from controller.vision.seam_params import F64, Candidate, DetectParams
 
 JOINT_END = "joint_end"
 IMAGE_BORDER = "image_border"
 
 
+def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
+           offset: tuple[int, int]) -> tuple[Candidate, float, float, list[str]]:
+    """The best of ``cands`` (refined), the next one's score ratio, its confidence and reasons.
+
+    Raises :class:`SeamNotFound` (none passes, the best is too weak or fades out inside a sheet)
+    or :class:`AmbiguousSeam` (two of similar strength); ``details`` (with the reasons of the
+    rejected candidates added) go into the error. ``offset`` (x0, y0): ROI corner, for messages.
+    """
+    good = sorted([c for c in cands if not c.why_rejected], key=lambda c: -c.score)
+    rejected = [c.why_rejected for c in cands if c.why_rejected]
+    details = {**details, "rejected": rejected}
+    if not good:
+        raise SeamNotFound(
+            f"no weld seam found in the image ({len(cands)} candidate(s) looked at: "
+            + ("; ".join(rejected) or "no thin dark valley long enough")
+            + "); check that the joint is in view, in focus and lit, or give a --roi", **details)
+    best = good[0]
+    rivals = sorted(good[1:] + [c for c in cands if c.why_rejected and c.rival],
+                    key=lambda c: -c.score)
+    second = rivals[0] if rivals else None
+    ratio = (second.score / best.score) if second is not None else 0.0
+    x0, y0 = offset
+    if second is not None and ratio >= p.ambiguity_ratio:
+        raise AmbiguousSeam(
+            f"two seam candidates of similar strength (score {best.score:.0f} vs "
+            f"{second.score:.0f}, ratio {ratio:.2f}); refusing to choose: give a --roi or a "
+            "nominal seam hint", best_px=summary_px(best, x0, y0),
+            second_px=summary_px(second, x0, y0), **details)
+    conf, reasons = rate_confidence(best, ratio)
+    if "open" in best.end_kinds:
+        # A point inside a sheet is never returned as an end, at any confidence threshold.
+        raise SeamNotFound("best seam candidate fades out inside a sheet at one end (a joint "
+                           "ends at a sheet border or leaves the image): "
+                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
+    if conf < p.min_confidence:
+        raise SeamNotFound(f"best seam candidate too weak (confidence {conf:.2f}): "
+                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
+    return best, ratio, conf, reasons
+
+
 def rate_confidence(c: Candidate, ratio: float) -> tuple[float, list[str]]:
     """Confidence 0..1 of ``c`` (``ratio``: next candidate's score over its own) and why."""
-    reasons = [f"thin dark valley {c.length_px:.0f} px long with a sheet on each side",
-               f"{100 * c.valid_frac:.0f} % of cross-profiles fit two gap edges",
-               f"relative gap depth {c.depth:.2f}, fit residual {100 * c.resid:.1f} % of depth"]
+    if c.way == "profiles":
+        reasons = [f"thin dark valley {c.length_px:.0f} px long with a sheet on each side",
+                   f"{100 * c.valid_frac:.0f} % of cross-profiles fit two gap edges",
+                   f"relative gap depth {c.depth:.2f}, fit residual {100 * c.resid:.1f} % of "
+                   "depth"]
+    else:
+        reasons = [f"dark valley path {c.length_px:.0f} px long through the whole image",
+                   f"a valley on {100 * c.valid_frac:.0f} % of it (covered stretches bridged)",
+                   f"relative gap depth {c.depth:.2f}"]
     conf = (min(1.0, c.valid_frac / 0.9) * min(1.0, c.depth / 0.4)
             * max(0.0, 1.0 - max(0.0, c.resid - 0.05) * 4) * (1.0 - 0.5 * ratio))
     n_open = sum(k == "open" for k in c.end_kinds)

@@ -49,7 +49,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controller.errors import AmbiguousSeam, InputError, SeamNotFound
+from controller.errors import InputError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
 from controller.vision.seam_coarse import coarse_candidates, mean_dist
@@ -57,14 +57,14 @@ from controller.vision.seam_decision import (
     IMAGE_BORDER,
     JOINT_END,
     arc_length,
+    choose,
     orient,
     public_end_kinds,
-    rate_confidence,
     spans_of,
-    summary_px,
 )
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_profiles import linear_lut
+from controller.vision.seam_robust import robust_candidates
 
 __all__ = ["IMAGE_BORDER", "JOINT_END", "DetectParams", "SeamDetection", "detect_seam",
            "detect_seams"]
@@ -161,37 +161,26 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     cands, seen = coarse_candidates(sub, lut, p)
     if hint_arr is not None:
         cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
-    for c in cands[: p.max_candidates]:
+    cands = cands[: p.max_candidates]
+    for c in cands:
         refine(sub, lut, c, p)
-    good = sorted([c for c in cands[: p.max_candidates] if not c.why_rejected],
-                  key=lambda c: -c.score)
-    rejected = [c.why_rejected for c in cands[: p.max_candidates] if c.why_rejected]
-    details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1],
-                               "rejected": rejected}
-    if not good:
-        raise SeamNotFound(
-            f"no weld seam found in the image ({len(cands)} candidate(s) looked at: "
-            + ("; ".join(rejected) or "no thin dark valley long enough")
-            + "); check that the joint is in view, in focus and lit, or give a --roi", **details)
-    best = good[0]
-    second = good[1] if len(good) > 1 else None
-    ratio = (second.score / best.score) if second is not None else 0.0
-    if second is not None and ratio >= p.ambiguity_ratio:
-        raise AmbiguousSeam(
-            f"two seam candidates of similar strength (score {best.score:.0f} vs "
-            f"{second.score:.0f}, ratio {ratio:.2f}); refusing to choose: give a --roi or a "
-            "nominal seam hint", best_px=summary_px(best, x0, y0),
-            second_px=summary_px(second, x0, y0), **details)
+    details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
+    try:
+        best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
+    except SeamNotFound as first:
+        if not p.robust:
+            raise
+        # The gap is not the clean two-edge valley the profiles fit (ragged, wide, covered by
+        # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
+        pens = [c.points for c in cands if c.points is not None and "fades out" in c.why_rejected]
+        cands = robust_candidates(sub, lut, p, not_lines=pens)
+        if hint_arr is not None:
+            cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
+        details["first_way"] = str(first)
+        best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
+        reasons.append("found as a whole-image valley path (the two-edge profile model did not "
+                       "fit the gap)")
     assert best.points is not None and best.width is not None
-    conf, reasons = rate_confidence(best, ratio)
-    if "open" in best.end_kinds:
-        # A point inside a sheet is never returned as an end, at any confidence threshold.
-        raise SeamNotFound("best seam candidate fades out inside a sheet at one end (a joint "
-                           "ends at a sheet border or leaves the image): "
-                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
-    if conf < p.min_confidence:
-        raise SeamNotFound(f"best seam candidate too weak (confidence {conf:.2f}): "
-                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
     pts0 = best.points + [x0, y0]
     pts = orient(pts0)
     flipped = pts is not pts0
@@ -203,7 +192,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     stats = {"length_px": float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))),
              "valid_fraction": float(best.valid_frac), "relative_depth": float(best.depth),
              "fit_residual": float(best.resid), "second_best_ratio": float(ratio),
-             "candidates": len(cands)}
+             "candidates": len(cands), "way": best.way}
     return SeamDetection(points_px=pts, confidence=conf, reasons=reasons,
                          endpoints_px=np.array([pts[0], pts[-1]]), width_px=width, stats=stats,
                          end_kinds=kinds, occluded_spans_px=spans_of(pts, bridged))

@@ -129,7 +129,8 @@ def _border_line(offs: tuple[float, ...],
     sheet and the table look alike there (then it is something beyond, such as a table hole).
     Every pair of first steps defines a border line (crossing the seam at 15 degrees or more);
     the one most lines agree with (within 1.5 px) wins, the inner one on a tie, and is fitted
-    to them. A lone step, seen on one line only, is taken only from the centreline (offset 0).
+    to them. A lone step, seen on one line only, is no border: where only the centreline
+    steps the sheet continues on both sides (the end of a pen line inside a sheet).
     Also says whether the end is unsure: the winner is seen on two lines only and another line
     seen on as many crosses the seam more than 3 px away (a mark meeting the seam at the border
     can do that; the inner one is then no better a guess than the other).
@@ -152,10 +153,10 @@ def _border_line(offs: tuple[float, ...],
     if best is not None:
         rivals = [k for n, k in fits if n == best[0] and abs(k - best[1]) > 3.0]
         return best[1], best[0] == -2 and bool(rivals)
-    # A lone step counts only where the gap's own dark floor ends (a lone step beside the gap
-    # may be a texture stripe or a dot).
-    near = [k for o, k in firsts if o == 0]
-    return (near[0] if near else None), False
+    # Only the centreline steps: the dark line ends but the sheet goes on beside it on both
+    # sides. That is how a pen or soapstone line or a scratch ends inside a sheet; a joint ends
+    # where a sheet does. Not an end (the caller calls it open).
+    return None, False
 
 
 def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> list[float]:

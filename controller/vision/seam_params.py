@@ -9,7 +9,7 @@ is filled in by the coarse search (:mod:`controller.vision.seam_coarse`), the ce
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +33,8 @@ class DetectParams:
     candidate at least this strong relative to the best makes the result ambiguous.
     ``min_confidence``: below this the detection is refused (:class:`SeamNotFound`); an open end
     caps the confidence at 0.45, so a seam not seen to a border is refused by default.
+    ``robust``: when no candidate of the profile model passes, look for the seam as a whole-image
+    valley path (:mod:`controller.vision.seam_robust`: ragged, wide, covered or dark gaps).
     """
 
     gamma: float = 2.2
@@ -53,6 +55,7 @@ class DetectParams:
     ambiguity_ratio: float = 0.6
     min_confidence: float = 0.5
     max_candidates: int = 4
+    robust: bool = True
 
 
 @dataclass
@@ -70,4 +73,7 @@ class Candidate:
     score: float = 0.0
     end_kinds: tuple[str, str] = ("open", "open")
     bridged: NDArray[np.bool_] | None = None  # per point of ``points``: interpolated, not seen
+    stats: dict[str, float] = field(default_factory=dict)
+    rival: bool = False  # rejected, but its line may be the joint: still makes others ambiguous
+    way: str = "profiles"  # or "valley path" (controller.vision.seam_robust)
     why_rejected: str = ""

@@ -1,0 +1,123 @@
+"""The second way to a seam (whole-image valley paths) and the end rules that tell a joint from a
+pen line: synthetic images with exact truth, and the real photographs when present."""
+
+import json
+import sys
+
+import numpy as np
+import pytest
+from shared_data import needs, shared_data_dir
+
+from controller.errors import AmbiguousSeam, SeamNotFound
+from controller.vision.seam_detect import detect_seam
+from controller.vision.seam_ends import _border_line
+from controller.vision.seam_params import DetectParams
+from controller.vision.seam_profiles import linear_lut
+from controller.vision.seam_robust import robust_candidates
+from controller.vision.seam_track import _best_subpath
+
+REAL = shared_data_dir() / "real-seams"
+
+
+def _sheets(h=900, w=1200, seed=0):
+    """Two textured sheets (grey 150 and 170) meeting at x = 600 + 0.05 (y - h/2)."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    xc = 600.0 + 0.05 * (yy - h / 2)
+    img = np.where(xx < xc, 150.0, 170.0) + rng.normal(0, 6, (h, w))
+    return img, xx, yy, xc
+
+
+def _ragged_gap(img, xx, yy, xc, width, seed=1):
+    """A ragged dark gap ``width`` px wide centred on ``xc``; returns its true centre per row."""
+    rng = np.random.default_rng(seed)
+    jag = np.convolve(rng.normal(0, 1.2, img.shape[0]), np.ones(9) / 9, mode="same")
+    left = xc - width / 2 + jag[:, None]
+    right = xc + width / 2 - jag[:, None] * 0.5
+    inside = (xx > left) & (xx < right)
+    img[inside] = 25.0 + rng.normal(0, 4, int(inside.sum()))
+    return (left[:, 0] + right[:, 0]) / 2
+
+
+def _blob(img, xx, yy, cx, cy, r, level=235.0):
+    img[(xx - cx) ** 2 + (yy - cy) ** 2 < r * r] = level
+
+
+def test_best_subpath_bridges_a_covered_stretch_and_stops_at_the_ends():
+    gain = np.full((200, 60), -0.1, np.float32)
+    gain[20:180, 30] = 0.5
+    gain[90:110, 30] = -0.1  # covered for 20 rows: bridged, the gap on both sides pays for it
+    rows, cols, score = _best_subpath(gain, 0.02)
+    assert rows[0] == 20 and rows[-1] == 179
+    assert np.all(cols == 30)
+    assert score == pytest.approx(140 * 0.5 - 20 * 0.1, abs=1e-3)
+
+
+def test_a_wide_ragged_gap_under_tack_welds_is_bridged_and_reported_occluded():
+    img, xx, yy, xc = _sheets()
+    truth_x = _ragged_gap(img, xx, yy, xc, width=18.0)
+    for cy in (250.0, 600.0):  # two tack welds, 90 px across
+        _blob(img, xx, yy, float(np.interp(cy, np.arange(900), truth_x)), cy, 45.0)
+    grey = np.clip(img, 0, 255).astype(np.uint8)
+    det = detect_seam(grey)
+    assert det.stats["way"] == "valley path"  # the two-edge model does not fit a ragged gap
+    assert list(det.end_kinds) == ["image_border", "image_border"]
+    v = det.points_px[:, 1]
+    err = np.abs(det.points_px[:, 0] - np.interp(v, np.arange(900), truth_x))
+    assert np.percentile(err, 95) < 3.0 and err.max() < 6.0
+    assert v.min() < 5 and v.max() > 894  # border to border
+    spans = np.array(det.occluded_spans_px)
+    for cy in (250.0, 600.0):  # each tack weld inside a reported occluded span (arc ~ v)
+        assert np.any((spans[:, 0] <= cy + 10) & (spans[:, 1] >= cy - 10))
+    assert det.occluded[np.argmin(np.abs(v - 250.0))]
+
+
+def test_a_dark_line_that_fades_out_inside_the_sheet_is_never_returned():
+    # A pen line on one sheet: dark, thin, ending 150 px inside the image at both ends.
+    img, xx, yy, xc = _sheets(seed=3)
+    img[:] = np.where(xx < 9999, 160.0, 0) + np.random.default_rng(3).normal(0, 6, img.shape)
+    on = (np.abs(xx - 500.0) < 2.5) & (yy > 150) & (yy < 750)
+    img[on] = 40.0
+    grey = np.clip(img, 0, 255).astype(np.uint8)
+    with pytest.raises((SeamNotFound, AmbiguousSeam)) as err:
+        detect_seam(grey)
+    assert "fades out" in str(err.value) or "no weld seam" in str(err.value)
+    for c in robust_candidates(grey, linear_lut(2.2), DetectParams()):
+        if c.points is not None and np.median(np.abs(c.points[:, 0] - 500.0)) < 5:
+            assert c.why_rejected  # the pen line is a candidate only to be rejected
+
+
+def test_only_the_centreline_stepping_is_not_a_sheet_border():
+    offs = (-9.7, -4.9, 0.0, 4.9, 9.7)
+    # The dark floor ends but both sides go on: the end of a line drawn on a sheet.
+    k, _ = _border_line(offs, [[], [], [3.0], [], []])
+    assert k is None
+    # The sheets end too: a border line crossing the side lines.
+    k, _ = _border_line(offs, [[3.0], [3.0], [3.0], [3.0], []])
+    assert k == pytest.approx(3.0)
+
+
+@needs(REAL)
+def test_real_photographs_found_or_refused_never_wrong():
+    sys.path.insert(0, str(REAL))
+    try:
+        from score import score_detection
+    finally:
+        sys.path.remove(str(REAL))
+    import cv2
+
+    verdicts = {}
+    for lf in sorted((REAL / "labels").glob("*.json")):
+        label = json.loads(lf.read_text())
+        img = cv2.imread(str(REAL / label["image"]))
+        try:
+            det = detect_seam(img)
+        except (SeamNotFound, AmbiguousSeam):
+            verdicts[lf.stem] = "refused"
+            continue
+        r = score_detection(label, det.points_px, list(det.end_kinds))
+        verdicts[lf.stem] = r["verdict"]
+    assert "wrong" not in verdicts.values(), verdicts
+    # Today: 6 of 9 found (1_x2 and 1_x5 ambiguous with the ground strip's edge line, 2_x1
+    # nearly closed); fewer means the detector got worse on real photographs.
+    assert sum(v == "found" for v in verdicts.values()) >= 6, verdicts
