@@ -27,6 +27,8 @@ from controller.vision.seam_track import ValleyPath, find_paths, robust_line
 from controller.vision.seam_valley import main_directions, shrink, valley_response, work_factor
 
 MIN_DEPTH = 0.3  # median relative valley depth along a path for it to be a gap
+MIN_RESP = 0.15  # valley response that counts as a valley on a clean image
+MIN_SEEN = 0.4  # share of a path where the gap is measured at full resolution
 MIN_SUPPORT = 0.65  # share of a path with a valley for it to be a gap (the rest covered)
 
 
@@ -71,7 +73,7 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     """One valley path measured at full resolution as a :class:`Candidate` (or why rejected)."""
     H, W = grey.shape
     raw = (path.points + 0.5) * f - 0.5
-    sup = path.resp > 1.5 * bias
+    sup = path.resp > max(1.5 * bias, MIN_RESP)
     c = Candidate(raw, path.score, float(np.sum(np.linalg.norm(np.diff(raw, axis=0), axis=1))),
                   way="valley path")
     if len(raw) < 12 or c.length_px < p.min_length_px:
@@ -163,6 +165,10 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     elif c.depth < MIN_DEPTH:
         c.why_rejected = (f"valley path of {c.length_px:.0f} px: too shallow to be a gap "
                           f"(relative depth {c.depth:.2f} < {MIN_DEPTH})")
+    elif seen.mean() < MIN_SEEN:
+        c.why_rejected = (f"valley path of {c.length_px:.0f} px: a gap profile is measured on "
+                          f"only {100 * seen.mean():.0f} % of it")
+        c.rival = True  # the gap may be ragged or covered: it still makes another line doubtful
     elif sup.mean() < MIN_SUPPORT:
         c.why_rejected = (f"valley path of {c.length_px:.0f} px: the gap is seen on only "
                           f"{100 * sup.mean():.0f} % of it")
