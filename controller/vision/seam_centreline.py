@@ -134,6 +134,10 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
         where = "both ends" if c.end_kinds == ("open", "open") else "one end"
         c.why_rejected = (f"dark line of {length:.0f} px fades out inside the sheet at {where} "
                           "(a pen line or scratch, not a joint)")
+        # Seen to a border at one end, it may be a faint joint whose other end is lost: it is not
+        # returned, but a seam only a little stronger than it is not sure either.
+        c.rival = where == "one end"
+        c.score = length * c.depth * c.valid_frac if c.rival else 0.0
         return
     c.score = length * c.depth * c.valid_frac
 
