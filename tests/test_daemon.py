@@ -267,6 +267,29 @@ def test_sighup_reload_between_cycles(running):
     assert send_request(sock, {"cmd": "status"})["last_cycle"]["job"] == "demo2"
 
 
+def test_reload_reconnects_only_when_the_devices_change(running):
+    d, cfg = running
+    sock = cfg.control.socket
+    path = Path(d.cfg.path)
+
+    def reload(old, new, n):
+        text = path.read_text()
+        assert text.count(old) == 1, old
+        path.write_text(text.replace(old, new))
+        d._reload.set()
+        _wait_for(lambda: send_request(sock, {"cmd": "status"})["config_reloads"] == n, 60,
+                  f"reload {n}")
+
+    robot = d.robot
+    reload('demo = "demo-job.toml"', 'demo = "demo-job.toml"\ndemo2 = "demo-job.toml"', 1)
+    assert d.robot is robot  # jobs only: the link stays
+    reload("mock://?seed=1", "mock://?seed=2", 2)  # another robot: reconnected
+    robot = _wait_for(lambda: d.robot if d.robot not in (None, robot) else None, 60,
+                      "the new robot")
+    reload('scene = "s_curve"\nseed = 1', 'scene = "s_curve"\nseed = 2', 3)  # another part
+    _wait_for(lambda: d.robot not in (None, robot), 60, "the robot of the new simulated cell")
+
+
 def test_operator_confirms_or_rejects_the_weld_path(tmp_path):
     with serving(confirming_cell(tmp_path / "cell")) as (d, cfg):
         sock = cfg.control.socket
