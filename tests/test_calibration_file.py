@@ -82,6 +82,8 @@ def _broken(tmp_path, calib, mutate):
     (lambda d: d["hand_eye"]["translation_mm"].__setitem__(0, None), "hand_eye.translation_mm"),
     (lambda d: d["camera_matrix"]["data"].__setitem__(4, 0.0), "camera_matrix"),  # fy = 0
     (lambda d: d["camera_matrix"].pop("data"), "camera_matrix"),
+    (lambda d: d["camera_matrix"]["data"].__setitem__(2, "a"), "camera_matrix"),
+    (lambda d: d["camera_matrix"]["data"].__setitem__(2, None), "camera_matrix"),
     (lambda d: d["camera_matrix"].update(rows=2), "camera_matrix"),
     (lambda d: d.update(image_width=True), "image_width"),
     (lambda d: d.update(image_width=12.5), "image_width"),

@@ -55,6 +55,12 @@ def test_a_linear_move_below_the_box_is_refused():
         MoveLinear(T, 50.0).check(LIMITS, ToolData(np.eye(4)))
 
 
+def test_a_linear_move_is_checked_at_its_target_position():
+    wide = SafetyLimits()  # holds the origin, so a column of the rotation would pass
+    with pytest.raises(SafetyError, match="move_linear target at \\(1850.0"):
+        MoveLinear(make_pose(t_mm=[1850.0, 0.0, 800.0]), 50.0).check(wide, ToolData(np.eye(4)))
+
+
 def test_the_box_itself_is_validated():
     with pytest.raises(ConfigError, match="min < max"):
         SafetyLimits(workspace_min_mm=(0.0, 0.0, 0.0), workspace_max_mm=(1.0, 1.0, 0.0))
