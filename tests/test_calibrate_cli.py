@@ -182,3 +182,51 @@ def test_teach_cli_mock_robot_auto(tmp_path, capsys):
     assert pose_error(calib.T_flange_cam, default_hand_eye())[0] < 0.3
     assert calib.metadata["robot_and_camera"]["robot"]["robot"] == "IRB2400"
     assert "good views" in captured.err and "solved:" in captured.err
+
+
+def test_intrinsics_fixed_summary_and_a_skipped_view_says_why(folder, session, tmp_path, capsys):
+    """--intrinsics FILE: the camera model is used as it is and the report says so; a view
+    without a board is named on stderr with the reason; the quality summary is printed."""
+    from calibration.calibration_file import Calibration, save_calibration
+
+    views = tmp_path / "views"
+    _copy_views(folder, views, [v.name for v in session.views])
+    cv2.imwrite(str(views / "view99.png"), np.full((480, 640), 90, np.uint8))
+    (views / "view99.json").write_text((views / "view01.json").read_text().replace(
+        "view01.png", "view99.png"))
+    lens = tmp_path / "lens.yaml"
+    save_calibration(lens, Calibration(CAM))
+    out = tmp_path / "c.yaml"
+    rc = main(["calibrate", "--from-folder", str(views), "--board", SPEC, "--output", str(out),
+               "--intrinsics", str(lens), "--holdout-every", "0",
+               "--report", str(tmp_path / "r.json")])
+    assert rc == 0
+    err = capsys.readouterr().err
+    assert "view99: NOT USED: no 9x6 chessboard found" in err
+    assert "leave-one-out prediction" in err and "noise: corners" in err
+    assert f"intrinsics written: fx {CAM.fx:.2f}" in err and f"fixed, from {lens}" in err
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["intrinsics"]["fixed"] and report["intrinsics"]["source"] == str(lens)
+    assert not report["hand_eye"]["refined_intrinsics"]
+    assert report["intrinsics_written"]["fx"] == round(CAM.fx, 4)
+    assert "view99" in report["why_no_board"]
+    assert np.allclose(load_calibration(out).camera.K, CAM.K)
+    # Intrinsics of another image size are refused, naming both sizes.
+    big = tmp_path / "big.yaml"
+    save_calibration(big, Calibration(default_camera(1280, 960)))
+    rc = main(["calibrate", "--from-folder", str(folder), "--board", SPEC, "--output",
+               str(tmp_path / "x.yaml"), "--intrinsics", str(big)])
+    assert rc == CalibrationError.exit_code and "for 1280x960 images" in capsys.readouterr().err
+
+
+def test_refusal_writes_a_report_with_the_options(folder, tmp_path, capsys):
+    out = tmp_path / "c.yaml"
+    rc = main(["calibrate", "--from-folder", str(folder), "--board", SPEC, "--output", str(out),
+               "--max-rms-px", "0.05", "--holdout-every", "0",
+               "--report", str(tmp_path / "r.json")])
+    assert rc == CalibrationError.exit_code and not out.exists()
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["status"] == "refused" and "hand-eye refused" in report["error"]
+    assert any(o.startswith("--max-rms-px") for o in report["options"])
+    assert report["intrinsics"]["fx"] > 0 and report["views_total"] == 12
+    assert "would change the outcome: --max-rms-px" in capsys.readouterr().err
