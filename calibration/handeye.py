@@ -187,38 +187,55 @@ def _solve(T_base_flange_list: Sequence[Pose],
     corr_mm, corr_deg, corr_sigma, fit_rms = (np.zeros(n) for _ in range(4))
     noise_info: dict[str, Any] = {}
     t0 = time.monotonic()
-    while True:
-        prob = _Problem([A[i] for i in used], [obs[i] for i in used], X, Y, intr,
-                        refine_intrinsics and refine, eye_to_hand, sigma_px, sigma_mm, sigma_rad)
-        p = prob.x0()
-        for it in range(6 if refine else 0):
-            p = _refine(prob, p, loss)
-            J = prob.jac(p)
-            N_inv = np.asarray(np.linalg.pinv(J.T @ J), float)
-            s_px, s_mm, s_rad, factors = estimate_noise(prob, prob.residuals(p), J, N_inv,
-                                                        estimate)
-            change = max(abs(np.log(s_px / prob.sigma_px)), abs(np.log(s_mm / prob.sigma_mm)),
-                         abs(np.log(s_rad / prob.sigma_rad)))
-            prob.sigma_px, prob.sigma_mm, prob.sigma_rad = s_px, s_mm, s_rad
-            noise_info = {"iterations": it + 1, "variance_factors": factors}
-            say(f"  pass {it + 1}: corners {s_px:.3f} px, robot {s_mm:.3f} mm / "
-                f"{np.degrees(s_rad):.4f} deg ({len(used)} views, {time.monotonic() - t0:.0f} s)")
-            if change < 0.05:
-                break
-        sigma_px, sigma_mm, sigma_rad = prob.sigma_px, prob.sigma_mm, prob.sigma_rad
-        X, Y, intr_new, D = prob.unpack(p)
-        intr = intr_new
+    noise_pending = refine
+
+    def assess(prob: _Problem, X: Pose, Y: Pose, intr: F64, D: F64
+               ) -> tuple[int, F64, float, float]:
+        """Per view pose correction and fit; the worst view, the scores and the two limits."""
         fit = prob.per_view_rms(prob.reprojection(X, Y, intr, D))
         for k, i in enumerate(used):
             corr_deg[i] = float(np.degrees(np.linalg.norm(D[k, :3])))
             corr_mm[i] = float(np.linalg.norm(D[k, 3:]))
-            corr_sigma[i] = float(np.sqrt(np.sum((D[k, :3] / sigma_rad) ** 2)
-                                          + np.sum((D[k, 3:] / sigma_mm) ** 2)))
+            corr_sigma[i] = float(np.sqrt(np.sum((D[k, :3] / prob.sigma_rad) ** 2)
+                                          + np.sum((D[k, 3:] / prob.sigma_mm) ** 2)))
             fit_rms[i] = fit[k]
         lim_s = max(reject_factor * float(np.median(corr_sigma[used])), reject_min_sigma)
         lim_px = max(reject_factor * float(np.median(fit_rms[used])), reject_min_px)
         score = np.maximum(corr_sigma / lim_s, fit_rms / lim_px)
-        worst = max(used, key=lambda i: score[i])
+        return max(used, key=lambda i: score[i]), score, lim_s, lim_px
+
+    while True:
+        prob = _Problem([A[i] for i in used], [obs[i] for i in used], X, Y, intr,
+                        refine_intrinsics and refine, eye_to_hand, sigma_px, sigma_mm, sigma_rad)
+        p = prob.x0()
+        if refine:
+            p = _refine(prob, p, loss)
+        X, Y, intr, D = prob.unpack(p)
+        worst, score, lim_s, lim_px = assess(prob, X, Y, intr, D)
+        if refine and score[worst] <= 1.0 and noise_pending:
+            # The noise is estimated once the bad views are out (with them in, a robot that is
+            # fine elsewhere looks noisy and the bad views hide in the noise), then the views
+            # are judged again with it.
+            noise_pending = False
+            for it in range(6):
+                J = prob.jac(p)
+                N_inv = np.asarray(np.linalg.pinv(J.T @ J), float)
+                s_px, s_mm, s_rad, factors = estimate_noise(prob, prob.residuals(p), J, N_inv,
+                                                            estimate)
+                change = max(abs(np.log(s_px / prob.sigma_px)),
+                             abs(np.log(s_mm / prob.sigma_mm)),
+                             abs(np.log(s_rad / prob.sigma_rad)))
+                prob.sigma_px, prob.sigma_mm, prob.sigma_rad = s_px, s_mm, s_rad
+                noise_info = {"iterations": it + 1, "variance_factors": factors}
+                say(f"  noise pass {it + 1}: corners {s_px:.3f} px, robot {s_mm:.3f} mm / "
+                    f"{np.degrees(s_rad):.4f} deg ({len(used)} views, "
+                    f"{time.monotonic() - t0:.0f} s)")
+                p = _refine(prob, p, loss)
+                if change < 0.05:
+                    break
+            sigma_px, sigma_mm, sigma_rad = prob.sigma_px, prob.sigma_mm, prob.sigma_rad
+            X, Y, intr, D = prob.unpack(p)
+            worst, score, lim_s, lim_px = assess(prob, X, Y, intr, D)
         if not refine or score[worst] <= 1.0:
             break
         if fit_rms[worst] > lim_px:
