@@ -12,6 +12,7 @@ from controller.geometry.kinematics import (
     inverse_kinematics,
     irb2400,
     solve_ik,
+    solve_ik_near,
     urdf_to_controller,
     within_limits,
 )
@@ -198,3 +199,16 @@ def test_ik_from_fails_out_of_reach_and_outside_limits(robot):
                        rotation_about([0, 0, 1], np.radians(1.0)) @ T[:3, 3])
     assert ik_from(robot, T, edge) is not None
     assert ik_from(robot, T_past, edge) is None
+
+
+def test_solve_ik_near_agrees_with_the_full_set_and_refuses_alike(robot):
+    rng = np.random.default_rng(12)
+    for _ in range(30):
+        j = rng.uniform(robot.limits_deg[:, 0] * 0.8, robot.limits_deg[:, 1] * 0.8)
+        if abs(j[4]) < 5:
+            continue
+        T = flange_pose(robot, j + rng.uniform(-3.0, 3.0, 6))
+        assert np.allclose(solve_ik_near(robot, T, j), solve_ik(robot, T, near_deg=j), atol=1e-6)
+    far = make_pose(np.eye(3), [3000.0, 0.0, 500.0])
+    with pytest.raises(ReachabilityError, match="far point"):
+        solve_ik_near(robot, far, np.zeros(6), name="far point")

@@ -324,12 +324,13 @@ def solve_ik(robot: RobotModel, T_base_flange: ArrayLike, near_deg: ArrayLike | 
 
 
 def solve_ik_near(robot: RobotModel, T_base_flange: ArrayLike, near_deg: ArrayLike | None,
-                  name: str = "target", max_step_deg: float = 10.0) -> F64:
+                  name: str = "target", max_step_deg: float = 30.0) -> F64:
     """:func:`solve_ik` for a pose next to the one ``near_deg`` reaches (a path's next point).
 
-    By continuity (:func:`ik_from`) when that lands within ``max_step_deg`` of ``near_deg`` on
-    every axis, else the full solution set's nearest: the same answer and the same refusals
-    (:class:`ReachabilityError`) as :func:`solve_ik`, in a few Newton steps on a smooth path.
+    The solution continuing ``near_deg``'s branch (:func:`ik_from`, a few Newton steps) when it
+    lands within ``max_step_deg`` of ``near_deg`` on every axis, else the full solution set's
+    nearest. A pose is refused (:class:`ReachabilityError`) exactly when :func:`solve_ik` refuses
+    it: continuity only returns a solution that exists within the limits.
     """
     if near_deg is not None:
         j = ik_from(robot, T_base_flange, near_deg)

@@ -71,9 +71,11 @@ MODULE SGSERVER
   VAR robtarget slots{251};
   VAR bool havepos{251};
   VAR bool haverot{251};
-  ! the circle point of a path point reached by MoveC (XC), its orientation that of the point
-  VAR robtarget circs{251};
+  ! the circle point of a path point reached by MoveC (XC); the robtarget circ is made from it
+  ! and the point's orientation when the move is issued
+  VAR pos circs{251};
   VAR bool havecirc{251};
+  VAR robtarget circ;
   VAR num path_n := 0;
   VAR robtarget snap;
   VAR bool havesnap := FALSE;
@@ -510,7 +512,7 @@ MODULE SGSERVER
     IF NOT IntArg(2, k) RETURN "ER 12 bad arguments to XC";
     IF k < 1 OR k > CAPACITY RETURN "ER 24 slot out of range";
     IF NOT (NumArg(3, x) AND NumArg(4, y) AND NumArg(5, z)) RETURN "ER 12 bad arguments to XC";
-    circs{k + 1}.trans := [x, y, z];
+    circs{k + 1} := [x, y, z];
     havecirc{k + 1} := TRUE;
     RETURN "OK";
   ENDFUNC
@@ -575,10 +577,7 @@ MODULE SGSERVER
       start := CRobT(\Tool:=sgtool \WObj:=wobj0);
       FOR i FROM 2 TO path_n + 1 DO
         IF havecirc{i} THEN
-          IF NOT MakesCircle(start.trans, circs{i}.trans, slots{i}.trans) RETURN "ER 12 circle point " + NumToStr(i - 1, 0) + " makes no circle";
-          circs{i}.rot := slots{i}.rot;
-          circs{i}.robconf := slots{i}.robconf;
-          circs{i}.extax := slots{i}.extax;
+          IF NOT MakesCircle(start.trans, circs{i}, slots{i}.trans) RETURN "ER 12 circle point " + NumToStr(i - 1, 0) + " makes no circle";
         ENDIF
         start := slots{i};
       ENDFOR
@@ -673,14 +672,19 @@ MODULE SGSERVER
       IF arc = 1 SetDO doWeld, 1;
       i := 1;
       WHILE i <= path_n AND mstate = "R" DO
+        IF havecirc{i + 1} THEN
+          ! the circle point's orientation is not used by the default circle reorientation
+          circ := slots{i + 1};
+          circ.trans := circs{i + 1};
+        ENDIF
         IF i = path_n THEN
           IF havecirc{i + 1} THEN
-            MoveC circs{i + 1}, slots{i + 1}, sgspeed, fine, sgtool \WObj:=wobj0;
+            MoveC circ, slots{i + 1}, sgspeed, fine, sgtool \WObj:=wobj0;
           ELSE
             MoveL slots{i + 1}, sgspeed, fine, sgtool \WObj:=wobj0;
           ENDIF
         ELSEIF havecirc{i + 1} THEN
-          MoveC circs{i + 1}, slots{i + 1}, sgspeed, sgzone, sgtool \WObj:=wobj0;
+          MoveC circ, slots{i + 1}, sgspeed, sgzone, sgtool \WObj:=wobj0;
         ELSE
           MoveL slots{i + 1}, sgspeed, sgzone, sgtool \WObj:=wobj0;
         ENDIF
