@@ -75,6 +75,7 @@ MODULE SGSERVER
   ! and the point's orientation when the move is issued
   VAR pos circs{251};
   VAR bool havecirc{251};
+  VAR num ncirc := 0;
   VAR robtarget circ;
   VAR num path_n := 0;
   VAR robtarget snap;
@@ -438,6 +439,7 @@ MODULE SGSERVER
         haverot{i} := FALSE;
         havecirc{i} := FALSE;
       ENDFOR
+      ncirc := 0;
       path_n := a;
       RETURN "OK " + NumToStr(a, 0);
     ENDIF
@@ -513,6 +515,7 @@ MODULE SGSERVER
     IF k < 1 OR k > CAPACITY RETURN "ER 24 slot out of range";
     IF NOT (NumArg(3, x) AND NumArg(4, y) AND NumArg(5, z)) RETURN "ER 12 bad arguments to XC";
     circs{k + 1} := [x, y, z];
+    IF NOT havecirc{k + 1} ncirc := ncirc + 1;
     havecirc{k + 1} := TRUE;
     RETURN "OK";
   ENDFUNC
@@ -573,14 +576,17 @@ MODULE SGSERVER
       FOR i FROM 2 TO path_n + 1 DO
         IF NOT Reachable(slots{i}) RETURN "ER 30 path point " + NumToStr(i - 1, 0) + " unreachable";
       ENDFOR
-      ! a circle starts at the point before it (for point 1: where the robot is)
-      start := CRobT(\Tool:=sgtool \WObj:=wobj0);
-      FOR i FROM 2 TO path_n + 1 DO
-        IF havecirc{i} THEN
-          IF NOT MakesCircle(start.trans, circs{i}, slots{i}.trans) RETURN "ER 12 circle point " + NumToStr(i - 1, 0) + " makes no circle";
-        ENDIF
-        start := slots{i};
-      ENDFOR
+      ! a circle starts at the point before it (for point 1: where the robot is); the loop
+      ! only when the path has circle points (a dense path's RW answers as quickly as before)
+      IF ncirc > 0 THEN
+        start := CRobT(\Tool:=sgtool \WObj:=wobj0);
+        FOR i FROM 2 TO path_n + 1 DO
+          IF havecirc{i} THEN
+            IF NOT MakesCircle(start.trans, circs{i}, slots{i}.trans) RETURN "ER 12 circle point " + NumToStr(i - 1, 0) + " makes no circle";
+          ENDIF
+          start := slots{i};
+        ENDFOR
+      ENDIF
       arc := a;
     ENDIF
     mid := m;
