@@ -236,3 +236,15 @@ def test_a_fault_of_the_pc_while_the_arc_is_on_aborts_then_moves_to_the_safe_pos
         # abort (arc off, stop) first, then the safe move, and nothing else
         assert assert_weld_stopped_with_the_arc_on(rig.mock) == [
             "arc_on", "abort", "arc_off", "stop", "start move_joints"]
+
+
+def test_a_whole_cycle_through_the_rapid_server_itself(tmp_path):
+    # the controller is SGSERVER.mod run by the RAPID interpreter (rapid://), not the mock
+    with SimRig(speedup=200.0, robot_scheme="rapid") as rig:
+        result = rig.cycle(tmp_path).run()
+        assert result.status == "done", result.reason
+        w = welds(rig.mock)
+        assert len(w) == 1 and w[0]["result"] == "done" and w[0]["points_reached"] > 50
+        assert rig.mock.arc_on is False and rig.mock.stopped_with is None
+        log = rig.mock.action_log
+        assert log[log.index("arc_on"):] == ["arc_on", "arc_off"]  # on for the weld only

@@ -148,7 +148,7 @@ class SimRig:
                  calibration: str | Path | Calibration | Mapping[str, Any] | None = None,
                  robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
                  confirm: bool = False, n_views: int = 2, cell: str = "wrist",
-                 clip_unseen_ends: bool = False) -> None:
+                 clip_unseen_ends: bool = False, robot_scheme: str = "mock") -> None:
         from drivers.sim.sim_cell import default_sim_cell
         from drivers.sim.sim_scene import make_scene
 
@@ -178,7 +178,8 @@ class SimRig:
         if self.fixed is None:
             self.job = dry_run_job(self.scene, view_joints(self.scene, self.cell, n_views),
                                    confirm, clip_unseen_ends=clip_unseen_ends)
-        self.robot_url = f"mock://?seed={seed}&time_scale={1.0 / speedup:g}" + (
+        # robot_scheme "rapid": the controller is SGSERVER.mod itself, in the RAPID interpreter
+        self.robot_url = f"{robot_scheme}://?seed={seed}&time_scale={1.0 / speedup:g}" + (
             f"&{robot_options}" if robot_options else "")
         self.camera_url = f"sim:?seed={seed}" + (f"&{camera_options}" if camera_options else "")
         self.robot: Any = None

@@ -71,7 +71,7 @@ def _robot(args: argparse.Namespace) -> int:
     from drivers.robot import open_robot
 
     options: dict[str, Any] = {}
-    if not args.port.startswith("mock://"):
+    if not args.port.startswith(("mock://", "rapid://")):
         options["baudrate"] = args.baud
     with open_robot(args.port, timeout_s=args.timeout, **options) as robot:
         if args.action == "ping":
