@@ -197,3 +197,15 @@ def test_an_aborted_move_is_reported_at_point_0_by_both():
             lines = [raw.line(), raw.line()]
             events.append(sorted(f"{f.kind} {f.body}" for f in lines))
     assert events[0] == events[1] == ["A OK", "E FL 9 41 0"]
+
+
+def test_the_client_raises_what_the_protocol_says_for_every_error_code():
+    import re
+
+    from drivers.abb.abb_robot import _ERROR_CLASSES
+
+    doc = (RAPID_DIR.parents[2] / "docs" / "protocol.md").read_text()
+    rows = re.findall(r"^\| (\d\d) \| [^|]+\| `(\w+)` \|$", doc, re.M)
+    assert len(rows) >= 15 and {"14", "15"} <= {c for c, _ in rows}
+    assert {int(c): name for c, name in rows} == {
+        c: cls.__name__ for c, cls in _ERROR_CLASSES.items()}

@@ -42,7 +42,8 @@ from drivers.robot_interface import DEFAULT_TIMEOUT_S, Event, MotionHandle, Moti
 
 _PUMP_SLICE_S = 0.05  # longest a waiter holds the link lock (abort() gets in between)
 _ERROR_CLASSES: dict[int, type[SeamguideError]] = {
-    11: ProtocolError, 12: ProtocolError, 13: LinkError, 20: RobotFault, 21: ProtocolError,
+    11: ProtocolError, 12: ProtocolError, 13: LinkError, 14: ProtocolError, 15: RobotFault,
+    20: RobotFault, 21: ProtocolError,
     22: RobotFault, 23: SafetyError, 24: ProtocolError, 25: RobotFault, 30: ReachabilityError,
     31: JointLimitError, 40: RobotFault, 41: RobotFault, 50: SafetyError}
 
