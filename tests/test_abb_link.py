@@ -26,6 +26,7 @@ from controller.geometry.poses import make_pose, pose_error
 from drivers.abb import abb_codec as codec
 from drivers.abb.abb_link import AbbLink
 from drivers.mock.mock_controller import MockController
+from drivers.rapid_vm.values import PREDEFINED, copy
 from drivers.rapid_vm.vm_controller import RapidController
 from drivers.robot import MotionTimeout, open_robot
 
@@ -233,7 +234,7 @@ class RapidDropAt(RapidController):
             if self.what == "disconnect":
                 self.lose_reply = True  # its reply, when the program writes it, is lost
             else:
-                self.program.globals["sgtool"] = RapidController().program.globals["sgtool"]
+                self.program.globals["sgtool"] = copy(PREDEFINED["tool0"][1])
                 self.restart()  # and someone edited the tool on the pendant (PERS kept)
 
     def _nasty_reply(self, data: bytes) -> bool:

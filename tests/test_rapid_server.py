@@ -12,7 +12,7 @@ import pytest
 import serial
 
 from drivers.abb import abb_codec as codec
-from drivers.rapid_vm.errors import RapidLoadError
+from drivers.rapid_vm.errors import RapidError, RapidLoadError
 from drivers.rapid_vm.machine import ERRORS_S4, SIGNALS, Machine
 from drivers.rapid_vm.program import Program
 from drivers.rapid_vm.vm_controller import RAPID_DIR, RapidController
@@ -209,3 +209,29 @@ def test_the_client_raises_what_the_protocol_says_for_every_error_code():
     assert len(rows) >= 15 and {"14", "15"} <= {c for c, _ in rows}
     assert {int(c): name for c, name in rows} == {
         c: cls.__name__ for c, cls in _ERROR_CLASSES.items()}
+
+
+def test_an_error_while_serving_is_answered_and_does_not_stop_a_running_motion():
+    # a recoverable RAPID error inside a request (here CJointT failing for RJ only) is answered
+    # ER 15 with its number; the motion running meanwhile ends normally, not as motion fault 40
+    line = next(i for i, s in enumerate(SERVER.splitlines(), 1) if "jt := CJointT();" in s)
+    ctl = RapidController(time_scale=1.0)
+    real = ctl.machine._cjoint_t
+
+    def failing_for_rj(where, a, o):
+        if where.endswith(f":{line}"):
+            raise RapidError(4711, "simulated failure")
+        return real(where, a, o)
+
+    ctl.machine._cjoint_t = failing_for_rj
+    ctl.program = ctl._load()
+    with served(ctl) as raw:
+        raw.ask("HI 7")
+        raw.ask("SV 200 0")
+        assert raw.ask("MJ 3 20 0 0 0 30 0") == "OK 3"  # 0.2 s of motion
+        assert raw.ask("RJ") == "ER 15 server error 4711"
+        while (ev := raw.line()).kind != "E":
+            pass
+        assert ev.body == "IP 3"
+        assert raw.ask("ST").split()[1:7] == ["0", "0", "3", "D", "0", "0"]
+    assert ctl.stopped_with is None
