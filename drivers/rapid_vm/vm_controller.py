@@ -136,7 +136,7 @@ class RapidController:
         for text, name in self.modules:
             prog.load(text, name)
         prog.probes = {"decode": self._probe_decode, "execute": self._probe_execute,
-                       "runmotion": self._probe_motion}
+                       "runmotion": self._probe_motion, "abort": self._probe_abort}
         prog.link()
         m.interrupt, m.delete_interrupt = prog.interrupt, prog.delete_interrupt
         prog.killed = m.alive
@@ -150,9 +150,14 @@ class RapidController:
         if phase == "enter":
             self._counts["executed_requests"] += 1
 
+    def _probe_abort(self, phase: str, result: Any) -> None:
+        if phase == "enter":  # as the mock logs it: "abort" before its "arc_off", "stop"
+            self.arm.action_log.append("abort")
+
     def _probe_motion(self, phase: str, result: Any) -> None:
         g = self.program.globals
         if phase == "enter":
+            self.arm.action_log.append(f"start {_KIND[g['mkind']]}")
             self.executed.append({"mid": int(g["mid"]), "kind": _KIND[g["mkind"]],
                                   "session": int(g["session"]), "result": "running",
                                   "points_reached": 0})
@@ -199,7 +204,11 @@ class RapidController:
 
     @property
     def action_log(self) -> list[str]:
-        """Ordered safety-relevant actions: arc_on / arc_off (each SetDO doWeld), stop, ..."""
+        """Ordered safety-relevant actions, named as the mock names them.
+
+        ``start <kind>`` (the program starts a motion), ``abort`` (its Abort), ``arc_on`` /
+        ``arc_off`` (each SetDO doWeld), ``stop`` (ClearPath), ``restart``, ``disconnect``.
+        """
         return self.arm.action_log
 
     @property
