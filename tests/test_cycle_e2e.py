@@ -244,7 +244,7 @@ def test_a_whole_cycle_through_the_rapid_server_itself(tmp_path):
         result = rig.cycle(tmp_path).run()
         assert result.status == "done", result.reason
         w = welds(rig.mock)
-        assert len(w) == 1 and w[0]["result"] == "done" and w[0]["points_reached"] > 50
+        assert len(w) == 1 and w[0]["result"] == "done" and w[0]["points_reached"] >= 2
         assert rig.mock.arc_on is False and rig.mock.stopped_with is None
         log = rig.mock.action_log
-        assert log[log.index("arc_on"):] == ["arc_on", "arc_off"]  # on for the weld only
+        assert log[log.index("arc_on") - 1:] == ["start weld", "arc_on", "arc_off"]  # weld only

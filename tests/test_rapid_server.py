@@ -58,7 +58,7 @@ class Raw:
 def served(ctl: RapidController) -> Iterator[Raw]:
     path = ctl.serve_pty()
     try:
-        with serial.serial_for_url(path, timeout=3.0) as port:
+        with serial.serial_for_url(path, timeout=10.0) as port:  # bounds a failure only
             yield Raw(port)
     finally:
         ctl.stop()

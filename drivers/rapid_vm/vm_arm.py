@@ -61,7 +61,10 @@ class VmArm(MockArm):
             self.schedule.after(0.0, fault)
             return
         self.start(token, kind, [seg], None)()
-        self.executed.pop()  # the arm's own log of motions: the controller keeps the real one
+        # the arm logs each segment as a motion; the controller logs the program's motions
+        self.executed.pop()
+        if self.action_log and self.action_log[-1].startswith("start "):
+            self.action_log.pop()
 
     def move(self, kind: str, j1: np.ndarray, T1: np.ndarray, dur: float,
              fail: bool = False, via_mm: np.ndarray | None = None) -> int:
