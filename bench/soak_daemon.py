@@ -104,7 +104,9 @@ def run_soak(folder: Path, cycles: int, seed: int, log=print, faults: list[str] 
             FaultyCamera.mode = fault
             timer = None
             if mock is not None:
-                mock.arm.fail_at_point = int(rng.integers(2, 60)) if fault == \
+                # the weld goes as segments: a straight seam is 3 path points (the line from the
+                # approach, one segment, the depart), so the fault comes at point 2 or 3
+                mock.arm.fail_at_point = int(rng.integers(2, 4)) if fault == \
                     "controller_error_mid_weld" else None
                 mock.line.corrupt, mock.line.drop = (0.03, 0.02) if fault == "link_corruption" \
                     else (0, 0)
