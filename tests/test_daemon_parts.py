@@ -58,18 +58,17 @@ def test_watchdog_pings_through_a_bounded_wait_then_stops(tmp_path, monkeypatch)
     import threading
     import time
 
-    from daemon_harness import make_cell
-
-    from controller.cell.daemon import Daemon
+    from controller.cell.watchdog import Watchdog
 
     path = str(tmp_path / "notify.sock")
     srv = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
     srv.bind(path)
     srv.settimeout(0.5)
     monkeypatch.setenv("NOTIFY_SOCKET", path)
-    d = Daemon(make_cell(tmp_path / "cell"))  # constructed only: nothing serves, nothing checks in
-    d._busy(0.6)
-    t = threading.Thread(target=d._watchdog, args=(0.05,), daemon=True)
+    wd = Watchdog()  # nothing serves, nothing checks in
+    stop = threading.Event()
+    wd.busy(0.6)
+    t = threading.Thread(target=wd.run, args=(0.05, stop), daemon=True)
     t.start()
     try:
         t0 = time.monotonic()
@@ -81,7 +80,7 @@ def test_watchdog_pings_through_a_bounded_wait_then_stops(tmp_path, monkeypatch)
             except TimeoutError:
                 break
     finally:
-        d._stop.set()
+        stop.set()
         t.join(5)
         srv.close()
     assert times and max(times) > 0.4  # well past 2 intervals without a check-in: still alive

@@ -19,27 +19,36 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from calibration.calibration_file import Calibration, calibration_to_dict
+from calibration.calibration_file import Calibration
 from controller.cell.cell_config import DEFAULT_CAMERA
 from controller.cell.cycle_machine import CycleState, build_machine
+from controller.cell.cycle_outputs import (
+    jsonable,
+    save_calibration,
+    save_overlay,
+    save_seam,
+    save_view,
+)
 from controller.cell.cycle_record import CycleRecord
+from controller.cell.cycle_result import CycleResult, CycleTimeout
+from controller.cell.guidance import (
+    Detector,
+    Located,
+    ViewInput,
+    locate_views,
+    plan_path,
+    settings_from_job,
+)
 from controller.cell.job import Job
-from controller.cell.seam_plot import seam_plot_png
 from controller.cell.view_cameras import ViewCamera, capture_groups, resolve_view_cameras
 from controller.errors import CameraError, CycleAborted, InputError, RobotFault, SeamguideError
-from controller.geometry.camera_model import CameraModel
 from controller.geometry.kinematics import RobotModel, check_pose_consistency, flange_pose, irb2400
-from controller.geometry.poses import pose_to_dict
-from controller.path.path_fit import fit_segments
-from controller.path.rapid_export import rapid_module
-from controller.path.weld_path import WeldPath, plan_weld
-from controller.stereo.locate import Seam3D, ViewObservation, locate_seam
+from controller.path.weld_path import WeldPath
 
 log = logging.getLogger(__name__)
 
@@ -47,35 +56,6 @@ log = logging.getLogger(__name__)
 ARRIVAL_TOLERANCE_DEG = 0.05
 
 
-class CycleTimeout(RobotFault):
-    """A state of the cycle took longer than its configured timeout."""
-
-    exit_code = 17
-
-
-@dataclass
-class CycleResult:
-    """What a cycle did: final status, reason, the located seam and path, the record folder."""
-
-    status: str
-    reason: str | None = None
-    error: SeamguideError | None = None
-    seam: Seam3D | None = None
-    path: WeldPath | None = None
-    record_path: Path | None = None
-    state_history: list[tuple[str, float]] = field(default_factory=list)
-    camera_poses: list[np.ndarray] = field(default_factory=list)
-    capture_skews_s: list[float] = field(default_factory=list)
-    detections: list[Any] = field(default_factory=list)
-    images: list[np.ndarray] = field(default_factory=list)
-
-    @property
-    def ok(self) -> bool:
-        """True when the cycle ended ``done``."""
-        return self.status == "done"
-
-
-Detector = Callable[..., Any]
 Confirmer = Callable[[WeldPath, float], bool]
 
 
@@ -129,6 +109,7 @@ class WeldCycle:
         self.records_root = records_root
         self.record: CycleRecord | None = None
         self.result = CycleResult(status="incomplete")
+        self.settings = settings_from_job(job)
         self._view_index = 0
         self._groups: list[list[int]] = []
         self._group_index = 0
@@ -201,7 +182,7 @@ class WeldCycle:
             self.result.record_path = self.record.path
             for cam, calib in self.calibrations.items():
                 name = "calibration.yaml" if cam == DEFAULT_CAMERA else f"calibration_{cam}.yaml"
-                self.record.save_text(name, _yaml(calibration_to_dict(calib)))
+                save_calibration(self.record, calib, name)
         try:
             self._view_cams = resolve_view_cameras(self.job, self.calibrations)
             self._groups = capture_groups(self._view_cams)
@@ -218,9 +199,9 @@ class WeldCycle:
                 self.captured()
             if self.record is not None:
                 self.record.note(robot_motions_before_weld=self._motions)
-            seam = self._locate()
+            located = self._locate()
             self.located()
-            path = self._plan(seam)
+            path = self._plan(located)
             self.planned()
             if self.state is CycleState.CONFIRMING:
                 self._confirm(path)
@@ -303,8 +284,10 @@ class WeldCycle:
             self.result.images[i] = image
             self.result.camera_poses[i] = T_base_cam
             if self.record is not None:
-                self.record.save_image(f"{name}.png", image)
-                self.record.save_json(f"{name}.json", self._view_doc(i, T_base_cam, skew))
+                vc = self._view_cams[i]
+                save_view(self.record, name, image, T_base_cam, skew_s=skew,
+                          camera=cam if cam != DEFAULT_CAMERA or len(self.calibrations) > 1
+                          else None, joints_deg=None if vc.fixed else self._joints_read[i])
         if skew is not None:
             self.result.capture_skews_s.append(skew)
             log.info("views %s captured together, trigger skew %.2f ms",
@@ -314,121 +297,43 @@ class WeldCycle:
                                                   for s in self.result.capture_skews_s])
         self._check_abort()
 
-    def _view_doc(self, i: int, T_base_cam: np.ndarray, skew: float | None) -> dict[str, Any]:
-        """The record's view file of view ``i`` (DESIGN.md's contract, plus what was measured)."""
-        view, vc = self.job.views[i], self._view_cams[i]
-        doc: dict[str, Any] = {"image": f"{view.name}.png"}
-        if vc.camera != DEFAULT_CAMERA or len(self.calibrations) > 1:
-            doc["camera"] = vc.camera
-        if vc.fixed:
-            doc["camera_pose"] = pose_to_dict(T_base_cam)
-        else:
-            doc["joints_deg"] = [round(float(v), 4) for v in self._joints_read[i]]
-            doc["camera_pose_computed"] = pose_to_dict(T_base_cam)
-        if skew is not None:
-            doc["capture_skew_ms"] = round(1000 * skew, 3)
-        return doc
+    def _views(self) -> list[ViewInput]:
+        """The captured views for the guidance pipeline, each with its own camera's model."""
+        return [ViewInput(view.name, image, self.calibrations[vc.camera].camera, T)
+                for view, vc, image, T in zip(self.job.views, self._view_cams, self.result.images,
+                                              self.result.camera_poses, strict=True)]
 
-    def _locate(self) -> Seam3D:
-        from controller.stereo.view_geometry import view_layout_warning
-        from controller.vision.seam_detect import detect_seams
-
+    def _locate(self) -> Located:
         t = self.job.timeouts.locate_s
-        cams = [self.calibrations[vc.camera].camera for vc in self._view_cams]
-        warning = view_layout_warning(self.result.camera_poses)
-        if warning is not None:
-            log.warning("job %s: %s", self.job.name, warning)
+        views = self._views()
+
+        def detected(dets: list[Any]) -> None:
+            self.result.detections.extend(dets)
             if self.record is not None:
-                self.record.note(view_layout_warning=warning)
-        observations = []
-        dets = detect_seams(self.result.images, camera=cams,
-                            rois=[self._roi(c, T) for c, T in zip(cams, self.result.camera_poses,
-                                                                  strict=True)],
-                            detector=self.detector)
-        for view, cam, image, T, det in zip(self.job.views, cams, self.result.images,
-                                            self.result.camera_poses, dets, strict=True):
-            self.result.detections.append(det)
-            if self.record is not None:
-                self._save_overlay(view.name, image, det)
-            observations.append(ViewObservation(cam, T, det.points_px, view.name,
-                                                getattr(det, "end_kinds", None)))
-            self._remaining(t)
-        if self.record is not None:
-            self.record.note(detections=[
-                {"view": v.name, "confidence": round(float(d.confidence), 3)}
-                for v, d in zip(self.job.views, dets, strict=True)])
-        seam = locate_seam(observations, self.job.quality, spacing_mm=self.job.seam.spacing_mm,
-                           count=self.job.seam.count,
-                           nominal_region=(np.asarray(self.job.seam.nominal_centre_mm),
-                                           self.job.seam.nominal_radius_mm),
-                           clip_unseen_ends=self.job.seam.clip_unseen_ends)
-        self.result.seam = seam
-        clipped = [e for e in seam.quality.get("ends", []) if e["status"] == "clipped"]
-        if clipped:
-            note = "; ".join(f"{e['end']} not seen by any view ({'; '.join(e['not_seen'])}): "
-                             f"clipped to the nominal region ({e['clipped_mm']:.1f} mm cut)"
-                             for e in clipped)
-            log.warning("job %s: seam %s", self.job.name, note)
-        if self.record is not None:
-            self.record.note(seam_ends=seam.quality.get("ends", []))
+                for view, det in zip(views, dets, strict=True):
+                    save_overlay(self.record, view.name, view.image, det)
+                self.record.note(detections=[
+                    {"view": v.name, "confidence": round(float(d.confidence), 3)}
+                    for v, d in zip(views, dets, strict=True)])
+
+        located = locate_views(views, self.settings, detector=self.detector,
+                               on_detections=detected, check=lambda: self._remaining(t),
+                               note=self.record.note if self.record is not None else None)
+        self.result.seam = located.seam
         self._remaining(t)
         self._check_abort()
-        return seam
+        return located
 
-    def _roi(self, cam: CameraModel, T_base_cam: np.ndarray) -> tuple[int, int, int, int] | None:
-        """Bounding box (px) of the job's nominal seam sphere seen by ``cam`` at ``T_base_cam``."""
-        c = np.asarray(self.job.seam.nominal_centre_mm)
-        r = self.job.seam.nominal_radius_mm
-        pts = c + r * np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1)
-                                for sz in (-1, 1)], dtype=np.float64)
-        uv = cam.project(pts, T_base_cam)
-        if np.any(~np.isfinite(uv)):
-            return None
-        x0, y0 = np.clip(np.floor(uv.min(axis=0)), 0, [cam.width - 1, cam.height - 1])
-        x1, y1 = np.clip(np.ceil(uv.max(axis=0)), 0, [cam.width - 1, cam.height - 1])
-        if x1 - x0 < 16 or y1 - y0 < 16:
-            return None
-        return int(x0), int(y0), int(x1), int(y1)
-
-    def _save_overlay(self, name: str, image: np.ndarray, det: Any) -> None:
-        try:
-            from controller.vision.seam_overlay import draw_overlay
-        except ImportError:
-            return
-        assert self.record is not None
-        self.record.save_image(f"{name}_overlay.png", draw_overlay(image, det))
-
-    def _plan(self, seam: Seam3D) -> WeldPath:
+    def _plan(self, located: Located) -> WeldPath:
         self._remaining(self.job.timeouts.plan_s)
-        normal = self.job.seam.normal
-        if normal is None:
-            from controller.stereo.view_geometry import nominal_normal_from_views
-
-            normal_v = nominal_normal_from_views(self.result.camera_poses)
-        else:
-            normal_v = np.asarray(normal, dtype=np.float64)
-        path = plan_weld(self.model, seam.points_mm, normal_v, self.job.weld_params(),
-                         self.job.workspace(),
+        path = plan_path(located, self.settings, self.model,
                          start_joints_deg=np.asarray(self.robot.read_joints()))
-        # the controller interpolates lines and circles: send the fewest within the tolerance
-        path.segments = fit_segments([t.T_base_tcp for t in path.weld_targets],
-                                     self.job.path_tolerance())
         self.result.path = path
         if self.record is not None:
-            self._save_seam(seam, path)
+            save_seam(self.record, located.seam, path, self.job)
         self._remaining(self.job.timeouts.plan_s)
         self._check_abort()
         return path
-
-    def _save_seam(self, seam: Seam3D, path: WeldPath) -> None:
-        assert self.record is not None
-        self.record.save_json("seam.json", locate_output(seam, path))
-        self.record.note(weld_segments=[g.to_dict() for g in path.segments])
-        self.record.save_text("weld_path.mod", rapid_module(
-            path, arc_output=self.job.weld.arc_output, comment=f"job {self.job.name}"))
-        tips = np.array([t.T_base_tcp[:3, 3] for t in path.targets])
-        self.record.save_bytes("seam_plot.png", seam_plot_png(seam.points_mm, tips,
-                                                              title=f"job {self.job.name}"))
 
     def _confirm(self, path: WeldPath) -> None:
         if self.confirm is None:
@@ -480,35 +385,10 @@ class WeldCycle:
         else:
             self._make_safe(move_to_safe_pose=False)
         self._finish(status, reason, error=type(err).__name__, exit_code=err.exit_code,
-                     **_jsonable(err.details))
+                     **jsonable(err.details))
 
     def _finish(self, status: str, reason: str | None, **details: Any) -> None:
         self.result.status = status
         self.result.reason = reason
         if self.record is not None:
             self.record.finish(status, reason, **details)
-
-
-def locate_output(seam: Seam3D, path: WeldPath | None) -> dict[str, Any]:
-    """The ``seamguide locate`` output contract: seam points (base frame, mm), path, quality."""
-    return {"seam_points_mm": [[round(float(v), 4) for v in p] for p in seam.points_mm],
-            "weld_path": path.to_json() if path is not None else [],
-            "quality": seam.quality}
-
-
-def _jsonable(d: dict[str, Any]) -> dict[str, Any]:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, np.ndarray):
-            out[k] = v.tolist()
-        elif isinstance(v, int | float | str | bool | list | dict) or v is None:
-            out[k] = v
-        else:
-            out[k] = str(v)
-    return out
-
-
-def _yaml(doc: dict[str, Any]) -> str:
-    import yaml
-
-    return yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)

@@ -137,6 +137,16 @@ def read_record(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise SeamguideError(f"cycle record {p} cannot be read: {err}") from err
 
 
+def read_record_if_any(path: str | os.PathLike[str] | None) -> dict[str, Any] | None:
+    """:func:`read_record`, or None when there is no folder or it cannot be read."""
+    if path is None:
+        return None
+    try:
+        return read_record(path)
+    except SeamguideError:
+        return None
+
+
 def mark_interrupted(root: str | os.PathLike[str]) -> list[Path]:
     """Mark every record under ``root`` still ``incomplete`` as ``interrupted``; return them.
 

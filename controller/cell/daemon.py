@@ -15,40 +15,28 @@ READY, STATUS and watchdog pings.
 
 from __future__ import annotations
 
-import collections
 import contextlib
 import logging
 import signal
 import threading
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from calibration.calibration_file import Calibration
 from controller.cell.cell_cameras import open_cell_camera
 from controller.cell.cell_config import CellConfig, load_calibrations, load_cell_config
+from controller.cell.confirmation import OperatorConfirmation
 from controller.cell.control_socket import ControlServer
 from controller.cell.cycle import WeldCycle
-from controller.cell.cycle_record import mark_interrupted, rotate_records
+from controller.cell.cycle_record import mark_interrupted, read_record_if_any, rotate_records
+from controller.cell.request_queue import RequestQueue
 from controller.cell.sd_notify import notify, watchdog_interval_s
+from controller.cell.watchdog import Watchdog
 from controller.errors import CameraError, ConfigError, LinkError, SeamguideError
-from controller.path.weld_path import WeldPath
 
 log = logging.getLogger(__name__)
 
-
-def _read_doc(record_path: Path | None) -> dict[str, Any] | None:
-    if record_path is None:
-        return None
-    from controller.cell.cycle_record import read_record
-
-    try:
-        return read_record(record_path)
-    except SeamguideError:
-        return None
 
 #: The job timeout (a ``TimeoutsSpec`` field) that bounds each cycle state, for the watchdog.
 STATE_TIMEOUTS = {"moving_to_view": "move_s", "capturing": "capture_s", "locating": "locate_s",
@@ -69,10 +57,8 @@ class Daemon:
         self.config_path = Path(config_path)
         self.cfg = load_cell_config(config_path)
         self._lock = threading.Lock()
-        # Pending cycle requests (job, source); guarded by _lock, signalled by _wake.
-        self._pending: collections.deque[tuple[str, str]] = collections.deque()
-        self._wake = threading.Condition(self._lock)
-        self._paused = False
+        #: Cycle requests from the control socket, waiting in order; ``ctl pause`` holds them.
+        self.requests = RequestQueue()
         self._stop = threading.Event()
         self._reload = threading.Event()
         self._cycle: WeldCycle | None = None
@@ -91,14 +77,10 @@ class Daemon:
         self._server: ControlServer | None = None
         self.ready = threading.Event()
         self._ended = threading.Condition(self._lock)
-        # A weld path waiting for the operator (summary) and the answer; guarded by _lock.
-        self._awaiting: dict[str, Any] | None = None
-        self._decision: bool | None = None
-        self._decided = threading.Condition(self._lock)
-        # Watchdog: the serve loop checks in between cycles; a long wait that is bounded by its
-        # own timeout (a cycle state, a reconnect backoff) is alive until then (monotonic s).
-        self._checked_in = time.monotonic()
-        self._busy_until = 0.0
+        #: A weld path waiting for the operator (``ctl confirm`` / ``ctl reject``).
+        self.confirmation = OperatorConfirmation(self._stop)
+        #: Liveness for systemd's watchdog: serve-loop check-ins and bounded waits.
+        self.watchdog = Watchdog()
         self._cycle_timeouts: Any = None
         self._cycle_views: list[str] = []
         #: Called (from the serve thread) with each event: ``("state", {"state": name})`` and
@@ -120,37 +102,22 @@ class Daemon:
                 self.cfg.job(job)
             except ConfigError as err:
                 return self._reject(str(err))
-            with self._lock:
-                self._pending.append((job, "control socket"))
-                self._wake.notify_all()
-                n = len(self._pending)
+            n = self.requests.put(job, "control socket")
             return {"ok": True, "queued": job, "queue_length": n}
         if cmd in ("confirm", "reject"):
-            with self._lock:
-                if self._awaiting is None:
-                    waiting = False
-                else:
-                    waiting = True
-                    self._decision = cmd == "confirm"
-                    self._decided.notify_all()
-            if not waiting:
+            if not self.confirmation.answer(cmd == "confirm"):
                 return self._reject(f"{cmd}: no weld path is waiting for confirmation")
             return {"ok": True, "confirmed": cmd == "confirm"}
         if cmd == "abort":
+            dropped = self.requests.clear()
             with self._lock:
-                dropped = len(self._pending)
-                self._pending.clear()
                 cycle = self._cycle
-                if self._awaiting is not None:  # a path waiting for the operator: that is a no
-                    self._decision = False
-                    self._decided.notify_all()
+            self.confirmation.answer(False)  # a path waiting for the operator: that is a no
             if cycle is not None:
                 cycle.request_abort("operator abort (control socket)")
             return {"ok": True, "aborted": cycle is not None, "dropped_requests": dropped}
         if cmd in ("pause", "resume"):
-            with self._lock:
-                self._paused = cmd == "pause"
-                self._wake.notify_all()
+            self.requests.set_paused(cmd == "pause")
             return {"ok": True, "paused": cmd == "pause"}
         return self._reject(f"unknown command {cmd!r}; use start, status, abort, pause, "
                             "resume, confirm, reject")
@@ -164,11 +131,11 @@ class Daemon:
         """The status answer: state (``idle`` when waiting), counters, last cycle, devices."""
         with self._lock:
             return {"ok": True, "cell": self.cfg.name, "state": self._cycle_state,
-                    "job": self._cycle_job, "paused": self._paused,
+                    "job": self._cycle_job, "paused": self.requests.paused,
                     "robot": self.robot_state, "camera": self.camera_state,
-                    "queue_length": len(self._pending), "counters": dict(self.counters),
+                    "queue_length": len(self.requests), "counters": dict(self.counters),
                     "config_reloads": self.reloads,
-                    "awaiting_confirmation": self._awaiting,
+                    "awaiting_confirmation": self.confirmation.awaiting,
                     "record": (str(self._cycle.record.path) if self._cycle is not None
                                and self._cycle.record is not None else None),
                     "views": list(self._cycle_views),
@@ -187,9 +154,9 @@ class Daemon:
     def request_stop(self, reason: str = "shutdown") -> None:
         """Stop after making the robot safe: a running weld is aborted (arc off) first."""
         self._stop.set()
+        self.confirmation.wake()
+        self.requests.wake()
         with self._lock:
-            self._wake.notify_all()
-            self._decided.notify_all()
             cycle = self._cycle
         if cycle is not None:
             threading.Thread(target=cycle.request_abort, args=(reason,), daemon=True).start()
@@ -227,12 +194,11 @@ class Daemon:
         self.ready.set()
         wd = watchdog_interval_s()
         if wd is not None:
-            threading.Thread(target=self._watchdog, args=(wd,), name="watchdog",
+            threading.Thread(target=self.watchdog.run, args=(wd, self._stop), name="watchdog",
                              daemon=True).start()
         try:
             while not self._stop.is_set():
-                with self._lock:
-                    self._checked_in = time.monotonic()
+                self.watchdog.check_in()
                 if self._reload.is_set():
                     self._do_reload()
                 if self.robot is None:
@@ -246,15 +212,11 @@ class Daemon:
         return 0
 
     def _next_request(self) -> tuple[str, str] | None:
-        with self._lock:
-            # Wait on the condition (woken by start/resume/stop) for at most 0.1 s, then look at
-            # the controller's events.
-            self._wake.wait_for(lambda: self._stop.is_set() or (self._pending and not self._paused),
-                                timeout=0.1)
-            if self._stop.is_set() or self._paused:
-                return None
-            if self._pending:
-                return self._pending.popleft()
+        # Wait for a request (woken by start/resume/stop) for at most 0.1 s, then look at the
+        # controller's events.
+        request = self.requests.next(self._stop, 0.1)
+        if request is not None or self._stop.is_set() or self.requests.paused:
+            return request
         try:
             event = self.robot.poll_event(timeout_s=0.1)
         except LinkError as err:
@@ -336,7 +298,7 @@ class Daemon:
         cycle = WeldCycle(self.robot, self.camera, self.calibration, job,
                           records_root=self.cfg.records.dir,
                           safe_joints_deg=self.cfg.safe_joints_deg, on_state=self._on_state,
-                          confirm=self._await_confirmation)
+                          confirm=self.confirmation.ask)
         with self._lock:
             self._cycle = cycle
             self._cycle_job = job_name
@@ -351,7 +313,7 @@ class Daemon:
                 self._cycle = None
                 self._cycle_state = "idle"
                 self._cycle_job = None
-                self._busy_until = 0.0
+            self.watchdog.idle()
         key = {"done": "cycles_done", "aborted": "cycles_aborted"}.get(result.status,
                                                                       "cycles_faulted")
         with self._lock:
@@ -364,7 +326,7 @@ class Daemon:
         self._notify("cycle_end", {**self.last_cycle,
                                    "error_kind": (type(result.error).__name__
                                                   if result.error is not None else None),
-                                   "record_doc": _read_doc(result.record_path)})
+                                   "record_doc": read_record_if_any(result.record_path)})
         log.info("cycle of job %s ended %s%s", job_name, result.status,
                  f": {result.reason}" if result.reason else "")
         notify(f"STATUS=last cycle {result.status}; waiting for cycle requests")
@@ -379,31 +341,6 @@ class Daemon:
             self.camera_state = "closed"
         rotate_records(self.cfg.records.dir, self.cfg.records.max_age_days,
                        self.cfg.records.max_total_mb)
-
-    def _await_confirmation(self, path: WeldPath, timeout_s: float) -> bool:
-        """The operator's answer to a planned weld path (``ctl confirm`` / ``ctl reject``).
-
-        Waits up to ``timeout_s`` (the job's confirm timeout); no answer, an abort or a shutdown
-        is a no. ``status`` shows the path's summary (mm, base frame) meanwhile.
-        """
-        tips = np.array([t.T_base_tcp[:3, 3] for t in path.weld_targets])
-        summary = {"weld_points": len(tips),
-                   "length_mm": round(float(np.linalg.norm(np.diff(tips, axis=0), axis=1).sum()),
-                                      1),
-                   "first_mm": np.round(tips[0], 2).tolist(),
-                   "last_mm": np.round(tips[-1], 2).tolist(),
-                   "timeout_s": round(timeout_s, 1)}
-        log.warning("weld path waiting for the operator: %s; answer with `seamguide ctl confirm` "
-                    "or `reject`", summary)
-        notify("STATUS=waiting for the operator to confirm the weld path")
-        with self._lock:
-            self._awaiting, self._decision = summary, None
-            try:
-                self._decided.wait_for(lambda: self._decision is not None or self._stop.is_set(),
-                                       timeout=timeout_s)
-                return self._decision is True and not self._stop.is_set()
-            finally:
-                self._awaiting, self._decision = None, None
 
     def _on_state(self, name: str) -> None:
         with self._lock:
@@ -421,28 +358,7 @@ class Daemon:
 
     def _busy(self, seconds: float) -> None:
         """The serve thread enters a wait bounded by ``seconds``: the watchdog keeps pinging."""
-        with self._lock:
-            self._checked_in = time.monotonic()
-            self._busy_until = self._checked_in + seconds
-
-    def _watchdog(self, interval_s: float) -> None:
-        """Ping systemd's watchdog every ``interval_s`` while the daemon is alive.
-
-        Alive: the serve loop checked in within two intervals, or it is in a wait bounded by its
-        own timeout (:meth:`_busy`): a cycle state (a weld may run for minutes; the cycle enforces
-        that timeout itself, so a cycle stuck beyond it means the daemon hangs, and systemd
-        restarts it) or a reconnect backoff (up to ``reconnect_max_s``).
-        """
-        while not self._stop.wait(interval_s):
-            now = time.monotonic()
-            with self._lock:
-                alive = (now - self._checked_in <= 2 * interval_s
-                         or now <= self._busy_until + interval_s)
-            if alive:
-                notify("WATCHDOG=1")
-            else:
-                log.error("watchdog: the serve loop has not checked in for %.1f s; not pinging",
-                          now - self._checked_in)
+        self.watchdog.busy(seconds)
 
     def _do_reload(self) -> None:
         self._reload.clear()

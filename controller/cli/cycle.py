@@ -157,56 +157,46 @@ def parse_calibration_args(items: list[str]) -> dict[str | None, str]:
 
 
 def _locate(args: argparse.Namespace) -> int:
+    """Load the files, run the guidance pipeline the cell runs (guide), write the contract."""
+    import dataclasses
+
     from calibration.calibration_file import Calibration, load_calibration
-    from controller.cell.cycle import locate_output
-    from controller.cell.job import load_job
-    from controller.geometry.kinematics import irb2400
-    from controller.geometry.view_file import load_view
-    from controller.path.weld_path import WeldParams, WorkspaceBox, plan_weld
-    from controller.stereo.locate import QualityLimits, ViewObservation, locate_seam
-    from controller.stereo.view_geometry import (
-        calibration_for_view,
-        camera_pose,
-        nominal_normal_from_views,
+    from controller.cell.guidance import (
+        GuidanceSettings,
+        ViewInput,
+        guide,
+        locate_output,
+        settings_from_job,
     )
+    from controller.cell.job import load_job
+    from controller.geometry.view_file import load_view
+    from controller.stereo.view_geometry import calibration_for_view, camera_pose
     from controller.vision.image_io import load_image
-    from controller.vision.seam_detect import detect_seam
 
     calibs: dict[str | None, Calibration] = {
         name: load_calibration(f) for name, f in parse_calibration_args(args.calibrations).items()}
-    job = load_job(args.job) if args.job else None
-    obs = []
+    settings = settings_from_job(load_job(args.job)) if args.job else GuidanceSettings()
+    if args.spacing is not None or args.count is not None:
+        settings = dataclasses.replace(
+            settings, spacing_mm=args.spacing if args.spacing is not None else settings.spacing_mm,
+            count=args.count if args.count is not None else settings.count)
+    views = []
     for vpath in args.views:
         view = load_view(vpath)
         calib = calibration_for_view(view, calibs)
-        image = load_image(view.image_path, camera=calib.camera)
-        det = detect_seam(image, camera=calib.camera)
+        views.append(ViewInput(view.name, load_image(view.image_path, camera=calib.camera),
+                               calib.camera, camera_pose(view, calib)))
+
+    def overlays(dets: list[Any]) -> None:
         if args.overlay_dir:
-            _save_overlay(Path(args.overlay_dir) / f"{view.name}_overlay.png", image, det)
-        obs.append(ViewObservation(calib.camera, camera_pose(view, calib), det.points_px,
-                                   view.name, det.end_kinds))
-    limits = job.quality if job else QualityLimits()
-    spacing = args.spacing if args.spacing is not None else (job.seam.spacing_mm if job else 2.0)
-    count = args.count if args.count is not None else (job.seam.count if job else None)
-    region = ((np.asarray(job.seam.nominal_centre_mm), job.seam.nominal_radius_mm)
-              if job else None)
-    seam = locate_seam(obs, limits, spacing_mm=None if count else spacing, count=count,
-                       nominal_region=region,
-                       clip_unseen_ends=bool(job and job.seam.clip_unseen_ends))
-    path = None
-    refused: SeamguideError | None = None
-    if not args.no_path:
-        normal = (np.asarray(job.seam.normal) if job and job.seam.normal
-                  else nominal_normal_from_views([o.T_base_cam for o in obs]))
-        params = job.weld_params() if job else WeldParams()
-        box = job.workspace() if job else WorkspaceBox()
-        try:
-            path = plan_weld(irb2400(), seam.points_mm, normal, params, box)
-        except SeamguideError as err:
-            # locate is a measuring tool too: the seam is written even when it cannot be welded.
-            refused = err
-    doc = locate_output(seam, path)
+            for v, det in zip(views, dets, strict=True):
+                _save_overlay(Path(args.overlay_dir) / f"{v.name}_overlay.png", v.image, det)
+
+    result = guide(views, settings, plan=not args.no_path, on_detections=overlays)
+    doc = locate_output(result.located.seam, result.path)
+    refused = result.path_error
     if refused is not None:
+        # locate is a measuring tool too: the seam is written even when it cannot be welded.
         doc["weld_path"] = None
         doc["weld_path_error"] = {"error": type(refused).__name__, "reason": str(refused),
                                   "exit_code": refused.exit_code}

@@ -1,0 +1,232 @@
+"""The guidance pipeline: from views to the located seam and the weld path, one way for everyone.
+
+Detect the seam in each view (inside the job's nominal region when there is one), make the
+observations (camera model, ``T_base_cam``, seam pixels), triangulate and check the seam
+(:func:`~controller.stereo.locate.locate_seam`), plan the weld (:func:`plan_weld`). The weld cycle
+runs :func:`locate_views` in its ``locating`` state and :func:`plan_path` in ``planning`` (a state
+change, and the robot's joints read back, sit between them); ``seamguide locate`` runs both
+through :func:`guide`; the dry run is a cycle. All of them take their limits and parameters from
+one :class:`GuidanceSettings`, made from the job (:func:`settings_from_job`) or, without a job,
+the defaults a job file has when it says nothing: what ``locate`` measures is what the cell welds.
+
+Each view carries its own camera model and pose, so views from several cameras (each with its own
+calibration, a view naming its camera) go through the same functions.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from controller.cell.job import Job
+from controller.errors import SeamguideError
+from controller.geometry.camera_model import CameraModel
+from controller.geometry.kinematics import RobotModel, irb2400
+from controller.geometry.poses import Pose
+from controller.path.path_fit import PathTolerance, fit_segments
+from controller.path.weld_path import WeldParams, WeldPath, WorkspaceBox, plan_weld
+from controller.stereo.locate import QualityLimits, Seam3D, ViewObservation, locate_seam
+from controller.stereo.view_geometry import nominal_normal_from_views, view_layout_warning
+
+log = logging.getLogger(__name__)
+
+F64 = NDArray[np.float64]
+#: A seam detector: ``detector(image, camera=..., roi=...)`` -> a seam detection
+#: (:func:`controller.vision.seam_detect.detect_seam` by default).
+Detector = Callable[..., Any]
+
+
+@dataclass(frozen=True)
+class ViewInput:
+    """One view to guide from: its name, the image, its camera's model and ``T_base_cam`` (mm)."""
+
+    name: str
+    image: NDArray[Any]
+    camera: CameraModel
+    T_base_cam: Pose
+
+
+@dataclass(frozen=True)
+class GuidanceSettings:
+    """Everything the pipeline needs besides the views; the defaults are a job file's defaults.
+
+    ``spacing_mm`` / ``count``: resampling of the seam points (``count`` wins when given);
+    ``nominal_centre_mm`` + ``nominal_radius_mm`` (base frame, mm): where the seam must be (also
+    the detectors' region of interest); ``normal``: out of the part (None: from the views);
+    ``path_tolerance``: how closely the segments sent to the controller follow the path;
+    ``clip_unseen_ends``: an end no view saw is cut at the nominal region (the job allows it).
+    """
+
+    quality: QualityLimits = QualityLimits()
+    spacing_mm: float | None = 2.0
+    count: int | None = None
+    nominal_centre_mm: tuple[float, float, float] | None = None
+    nominal_radius_mm: float | None = None
+    normal: tuple[float, float, float] | None = None
+    weld: WeldParams = field(default_factory=WeldParams)
+    workspace: WorkspaceBox = WorkspaceBox()
+    path_tolerance: PathTolerance = field(default_factory=PathTolerance)
+    clip_unseen_ends: bool = False
+
+    @property
+    def nominal_region(self) -> tuple[F64, float] | None:
+        """(centre mm, radius mm) of the nominal seam sphere, or None."""
+        if self.nominal_centre_mm is None or self.nominal_radius_mm is None:
+            return None
+        return np.asarray(self.nominal_centre_mm, dtype=np.float64), float(self.nominal_radius_mm)
+
+
+def settings_from_job(job: Job) -> GuidanceSettings:
+    """The pipeline settings of ``job``: quality limits, seam sampling and region, weld, box."""
+    s = job.seam
+    return GuidanceSettings(quality=job.quality, spacing_mm=s.spacing_mm, count=s.count,
+                            nominal_centre_mm=s.nominal_centre_mm,
+                            nominal_radius_mm=s.nominal_radius_mm, normal=s.normal,
+                            weld=job.weld_params(), workspace=job.workspace(),
+                            path_tolerance=job.path_tolerance(),
+                            clip_unseen_ends=s.clip_unseen_ends)
+
+
+@dataclass
+class Located:
+    """The located seam with what led to it: detections and observations in view order."""
+
+    seam: Seam3D
+    detections: list[Any]
+    observations: list[ViewObservation]
+    warning: str | None = None
+
+
+@dataclass
+class Guidance:
+    """The pipeline's result: the located seam and the weld path (or why there is none)."""
+
+    located: Located
+    path: WeldPath | None = None
+    path_error: SeamguideError | None = None
+
+
+def nominal_roi(camera: CameraModel, T_base_cam: Pose, centre_mm: F64,
+                radius_mm: float) -> tuple[int, int, int, int] | None:
+    """Bounding box (x0, y0, x1, y1 px) of the nominal seam sphere seen from ``T_base_cam``.
+
+    None when the sphere is not in front of the camera or its box is under 16 px a side.
+    """
+    c = np.asarray(centre_mm, dtype=np.float64)
+    pts = c + radius_mm * np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1)
+                                    for sz in (-1, 1)], dtype=np.float64)
+    uv = camera.project(pts, T_base_cam)
+    if np.any(~np.isfinite(uv)):
+        return None
+    x0, y0 = np.clip(np.floor(uv.min(axis=0)), 0, [camera.width - 1, camera.height - 1])
+    x1, y1 = np.clip(np.ceil(uv.max(axis=0)), 0, [camera.width - 1, camera.height - 1])
+    if x1 - x0 < 16 or y1 - y0 < 16:
+        return None
+    return int(x0), int(y0), int(x1), int(y1)
+
+
+def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
+                 detector: Detector | None = None) -> list[Any]:
+    """The seam in each view (in view order), inside the nominal region's box when there is one.
+
+    Two views at a time (:func:`detect_seams`), each with its own camera model. Raises what the
+    detector raises (seam not found, ambiguous seam).
+    """
+    from controller.vision.seam_detect import detect_seams
+
+    region = settings.nominal_region
+    rois = [nominal_roi(v.camera, v.T_base_cam, *region) if region is not None else None
+            for v in views]
+    return detect_seams([v.image for v in views], camera=[v.camera for v in views], rois=rois,
+                        detector=detector)
+
+
+def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
+                 detector: Detector | None = None,
+                 on_detections: Callable[[list[Any]], None] | None = None,
+                 note: Callable[..., None] | None = None,
+                 check: Callable[[], Any] | None = None) -> Located:
+    """Detect the seam in every view and triangulate it (base frame, mm): the first stage.
+
+    ``on_detections`` gets the detections before the seam is located (records, overlays: they
+    are kept when locating fails); ``note`` is told ``view_layout_warning=...`` about views
+    rolled alike (also logged) and ``seam_ends=...``, how each end of the seam was seen;
+    ``check`` runs between the steps (timeouts, aborts). Raises :class:`SeamguideError`
+    subclasses: seam not found or ambiguous in a view, triangulation quality, seam outside the
+    nominal region.
+    """
+    warning = view_layout_warning([v.T_base_cam for v in views])
+    if warning is not None:
+        log.warning("%s", warning)
+        if note is not None:
+            note(view_layout_warning=warning)
+    detections = detect_views(views, settings, detector)
+    if on_detections is not None:
+        on_detections(detections)
+    if check is not None:
+        check()
+    observations = [ViewObservation(v.camera, v.T_base_cam, d.points_px, v.name,
+                                    getattr(d, "end_kinds", None))
+                    for v, d in zip(views, detections, strict=True)]
+    seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
+                       count=settings.count, nominal_region=settings.nominal_region,
+                       clip_unseen_ends=settings.clip_unseen_ends)
+    ends = seam.quality.get("ends", [])
+    clipped = [e for e in ends if e["status"] == "clipped"]
+    if clipped:
+        log.warning("seam %s", "; ".join(
+            f"{e['end']} not seen by any view ({'; '.join(e['not_seen'])}): clipped to the "
+            f"nominal region ({e['clipped_mm']:.1f} mm cut)" for e in clipped))
+    if note is not None:
+        note(seam_ends=ends)
+    return Located(seam, list(detections), observations, warning)
+
+
+def plan_path(located: Located, settings: GuidanceSettings, model: RobotModel | None = None,
+              start_joints_deg: F64 | None = None) -> WeldPath:
+    """The weld path over the located seam: the second stage (torch poses, tool offset, reach).
+
+    The seam normal is the settings' or, without one, minus the views' mean optical axis. The weld
+    targets are fitted with the fewest MoveL / MoveC segments within the settings' tolerance
+    (``path.segments``: the controller interpolates lines and circles).
+    ``start_joints_deg`` (controller axes, deg) picks the IK branch nearest the robot's joints.
+    Raises :class:`ReachabilityError` / :class:`ConfigError` naming the first bad target.
+    """
+    if settings.normal is not None:
+        normal = np.asarray(settings.normal, dtype=np.float64)
+    else:
+        normal = nominal_normal_from_views([o.T_base_cam for o in located.observations])
+    path = plan_weld(model if model is not None else irb2400(), located.seam.points_mm, normal,
+                     settings.weld, settings.workspace, start_joints_deg=start_joints_deg)
+    path.segments = fit_segments([t.T_base_tcp for t in path.weld_targets],
+                                 settings.path_tolerance)
+    return path
+
+
+def guide(views: Sequence[ViewInput], settings: GuidanceSettings, *, plan: bool = True,
+          model: RobotModel | None = None, detector: Detector | None = None,
+          on_detections: Callable[[list[Any]], None] | None = None) -> Guidance:
+    """Both stages: the located seam and, when ``plan``, its weld path.
+
+    A seam that cannot be welded is still returned, with the planner's error in ``path_error``
+    (the cycle, which must not weld it, raises instead). Locating errors are raised.
+    """
+    located = locate_views(views, settings, detector=detector, on_detections=on_detections)
+    if not plan:
+        return Guidance(located)
+    try:
+        return Guidance(located, plan_path(located, settings, model))
+    except SeamguideError as err:
+        return Guidance(located, None, err)
+
+
+def locate_output(seam: Seam3D, path: WeldPath | None) -> dict[str, Any]:
+    """The ``seamguide locate`` output contract: seam points (base frame, mm), path, quality."""
+    return {"seam_points_mm": [[round(float(v), 4) for v in p] for p in seam.points_mm],
+            "weld_path": path.to_json() if path is not None else [],
+            "quality": seam.quality}
