@@ -117,3 +117,39 @@ def test_pose_from_dict_names_the_input():
         pose_from_dict({"position_mm": [1, 2]}, "flange_pose")
     with pytest.raises(InputError, match="flange_pose.position_mm"):
         pose_from_dict({"position_mm": [1, 2], "quaternion_wxyz": [1, 0, 0, 0]}, "flange_pose")
+
+
+def test_quaternion_conversions_are_scipys():
+    """poses converts with numpy (no scipy import on the CLI's path); the numbers are scipy's."""
+    from scipy.spatial.transform import Rotation
+
+    from controller.geometry.poses import (
+        canonical_quat_wxyz,
+        matrix_to_quat_wxyz,
+        quat_wxyz_to_matrix,
+        rotation_about,
+        rotation_error_deg,
+    )
+
+    rng = np.random.default_rng(11)
+    qs = list(rng.normal(size=(500, 4))) + [np.array(v, float) for v in
+                                            ([1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 1],
+                                             [0.7071, 0, 0.7071, 0], [1e-9, 1, 1e-9, 0])]
+    for q in qs:
+        q = q / np.linalg.norm(q)
+        R = Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix()
+        assert np.allclose(quat_wxyz_to_matrix(q), R, rtol=0, atol=1e-15)
+        x, y, z, w = Rotation.from_matrix(R).as_quat()
+        assert np.allclose(matrix_to_quat_wxyz(R), canonical_quat_wxyz([w, x, y, z]), atol=1e-15)
+        noisy = R + 1e-8 * rng.normal(size=(3, 3))  # not orthogonal: projected, as scipy does
+        x, y, z, w = Rotation.from_matrix(noisy).as_quat()
+        assert np.allclose(matrix_to_quat_wxyz(noisy), canonical_quat_wxyz([w, x, y, z]),
+                           atol=1e-15)
+    axis, ang = np.array([0.3, -1.0, 2.0]), 2.5
+    ref = Rotation.from_rotvec(axis / np.linalg.norm(axis) * ang).as_matrix()
+    assert np.allclose(rotation_about(axis, ang), ref, atol=1e-15)
+    Ta, Tb = np.eye(4), np.eye(4)
+    Tb[:3, :3] = ref
+    assert abs(rotation_error_deg(Ta, Tb) - np.degrees(ang)) < 1e-12
+    with pytest.raises(InputError):
+        matrix_to_quat_wxyz(-np.eye(3))

@@ -18,8 +18,6 @@ import glob
 import sys
 from typing import Any
 
-import numpy as np
-
 from controller.errors import CalibrationError, ConfigError
 from controller.jsonio import emit_json
 
@@ -86,6 +84,8 @@ def register(sub: Any) -> None:
 
 
 def _workspace(text: str | None) -> tuple[Any, Any]:
+    import numpy as np
+
     if text is None:
         return None, None
     try:
@@ -184,6 +184,8 @@ def _solve_and_write(args: argparse.Namespace, board: Any, exports: list[tuple[s
 
 
 def _teach(args: argparse.Namespace, board: Any, solve_kw: dict[str, Any]) -> tuple[Any, Any]:
+    import numpy as np
+
     from calibration.teach import run_teach
     from controller.geometry.camera_model import default_camera
 
@@ -233,14 +235,20 @@ class TeachRobotAdapter:
 
     def joints_deg(self) -> Any:
         """Current controller joints (deg)."""
+        import numpy as np
+
         return np.asarray(self.robot.read_joints(), float)
 
     def flange_pose(self) -> Any:
         """Current flange pose (4x4, mm) as the controller reports it (tool0, wobj0)."""
+        import numpy as np
+
         return np.asarray(self.robot.read_pose(), float)
 
     def move_joints(self, joints_deg: Any, timeout_s: float) -> None:
         """Move (checked by the link before sending) and wait until the controller says done."""
+        import numpy as np
+
         self.robot.move_joints(np.asarray(joints_deg, float), self.speed_mm_s).wait(timeout_s)
 
     def identity(self) -> dict[str, Any]:
@@ -285,6 +293,8 @@ class TeachCameraAdapter:
 
     def grab(self, timeout_s: float = 5.0) -> Any:
         """One frame (the driver applies its own deadline; CameraError if none comes)."""
+        import numpy as np
+
         return np.asarray(self.camera.grab())
 
     def close(self) -> None:
@@ -303,6 +313,8 @@ def open_teach_camera(url: str, robot: TeachRobotAdapter, board: Any, model: Any
     ``simboard:`` is the simulated board in the cell (drivers/sim/sim_board.py), rendered from the
     robot's reported flange pose, so that the whole routine runs without hardware.
     """
+    import numpy as np
+
     if url.startswith("simboard:"):
         from urllib.parse import parse_qs, urlsplit
 

@@ -7,8 +7,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from controller.errors import SeamguideError
 from controller.jsonio import emit_json
 
@@ -104,6 +102,8 @@ def _dry_run(args: argparse.Namespace) -> int:
 
 
 def _teach_view(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from controller.cell.job import teach_view
     from drivers.robot import open_robot
 
@@ -115,7 +115,7 @@ def _teach_view(args: argparse.Namespace) -> int:
     return 0
 
 
-def _save_overlay(path: Path, image: np.ndarray, det: Any) -> None:
+def _save_overlay(path: Path, image: Any, det: Any) -> None:
     import cv2
 
     from controller.errors import InputError

@@ -6,8 +6,6 @@ import argparse
 import logging
 from typing import Any
 
-import cv2
-
 from controller.errors import AmbiguousSeam, InputError, SeamNotFound
 from controller.jsonio import emit_json
 
@@ -79,6 +77,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _write_png(path: str, img: Any) -> None:
+    import cv2
+
     ok = cv2.imwrite(path, img)
     if not ok:
         raise InputError(f"--overlay {path}: cannot write a PNG there; check the folder exists "

@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from controller.geometry.kinematics import flange_pose, inverse_kinematics, irb2400
-from controller.geometry.poses import pose_from_pos_quat, pose_to_dict
 from controller.jsonio import emit_json
 
 
@@ -29,11 +27,17 @@ def register(sub: Any) -> None:
 
 
 def _fk(args: argparse.Namespace) -> int:
+    from controller.geometry.kinematics import flange_pose, irb2400
+    from controller.geometry.poses import pose_to_dict
+
     emit_json(pose_to_dict(flange_pose(irb2400(), args.joints)), args.output)
     return 0
 
 
 def _ik(args: argparse.Namespace) -> int:
+    from controller.geometry.kinematics import inverse_kinematics, irb2400
+    from controller.geometry.poses import pose_from_pos_quat
+
     T = pose_from_pos_quat(args.pose[:3], args.pose[3:], "pose")
     sols = inverse_kinematics(irb2400(), T)
     emit_json({"solutions_deg": [[round(float(v), 6) for v in s] for s in sols]}, args.output)

@@ -14,7 +14,6 @@ import threading
 import time
 from typing import Any
 
-from controller.geometry.poses import pose_to_dict
 from controller.jsonio import emit_json
 
 
@@ -68,6 +67,7 @@ def _mock_robot(args: argparse.Namespace) -> int:
 
 
 def _robot(args: argparse.Namespace) -> int:
+    from controller.geometry.poses import pose_to_dict
     from drivers.robot import open_robot
 
     options: dict[str, Any] = {}

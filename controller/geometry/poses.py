@@ -4,10 +4,12 @@
 so adjacent subscripts cancel (``T_base_cam = T_base_flange @ T_flange_cam``). Translations are in
 millimetres, angles in radians unless a name says ``_deg``.
 
-Quaternions are written w, x, y, z everywhere (files, protocol, CLI), as ABB RAPID does. scipy uses
-x, y, z, w: the conversion happens in :func:`quat_wxyz_to_matrix` and :func:`matrix_to_quat_wxyz`
-and nowhere else. Pinocchio ``SE3`` conversion lives in :mod:`controller.geometry.kinematics`, the
-one place that sees Pinocchio's metres.
+Quaternions are written w, x, y, z everywhere (files, protocol, CLI), as ABB RAPID does. The
+quaternion <-> matrix conversions are numpy here (scipy's algorithm, so that a command that prints
+a pose does not pay for importing scipy.spatial); scipy (x, y, z, w) is imported only by the
+functions that need its ``Rotation`` (slerp, rotation vectors) and converts inside them.
+Pinocchio ``SE3`` conversion lives in :mod:`controller.geometry.kinematics`, the one place that sees
+Pinocchio's metres.
 """
 
 from __future__ import annotations
@@ -16,7 +18,6 @@ from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation, Slerp
 
 from controller.errors import InputError
 
@@ -71,14 +72,41 @@ def check_quat_wxyz(q_wxyz: ArrayLike, name: str = "quaternion_wxyz") -> NDArray
 
 
 def quat_wxyz_to_matrix(q_wxyz: ArrayLike) -> NDArray[np.float64]:
-    """3x3 rotation matrix from a unit quaternion written (w, x, y, z)."""
+    """3x3 rotation matrix from a unit quaternion written (w, x, y, z) (normalised first)."""
     q = np.asarray(q_wxyz, dtype=np.float64)
-    return np.asarray(Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix())
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([
+        [w * w + x * x - y * y - z * z, 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), w * w - x * x + y * y - z * z, 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), w * w - x * x - y * y + z * z]])
 
 
 def matrix_to_quat_wxyz(R: ArrayLike) -> NDArray[np.float64]:
-    """Canonical unit quaternion (w, x, y, z) of a 3x3 rotation matrix."""
-    x, y, z, w = Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_quat()
+    """Canonical unit quaternion (w, x, y, z) of a 3x3 rotation matrix.
+
+    As scipy's ``Rotation.from_matrix``: a matrix that is not orthogonal (to 1e-12) is replaced by
+    the nearest orthogonal one (SVD); a non-positive determinant raises :class:`InputError`.
+    """
+    m = np.asarray(R, dtype=np.float64)
+    if m.shape != (3, 3) or not np.all(np.isfinite(m)) or np.linalg.det(m) <= 0:
+        raise InputError(f"not a rotation matrix (3x3, finite, determinant > 0): {m.tolist()}")
+    if not np.allclose(m @ m.T, np.eye(3), rtol=0.0, atol=1e-12):
+        U, _, Vt = np.linalg.svd(m)
+        m = U @ Vt
+    # Shepperd's method: build the quaternion from its largest component.
+    trace = m[0, 0] + m[1, 1] + m[2, 2]
+    decision = [m[0, 0], m[1, 1], m[2, 2], trace]
+    i = int(np.argmax(decision))
+    xyzw = np.empty(4)
+    if i == 3:
+        xyzw[:] = (m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], 1 + trace)
+    else:
+        j, k = (i + 1) % 3, (i + 2) % 3
+        xyzw[i] = 1 - trace + 2 * m[i, i]
+        xyzw[j] = m[j, i] + m[i, j]
+        xyzw[k] = m[k, i] + m[i, k]
+        xyzw[3] = m[k, j] - m[j, k]
+    x, y, z, w = xyzw / np.linalg.norm(xyzw)
     return canonical_quat_wxyz([w, x, y, z])
 
 
@@ -138,6 +166,8 @@ def transform_points(T_a_b: ArrayLike, points_b: ArrayLike) -> NDArray[np.float6
 
 def interpolate(T0: ArrayLike, T1: ArrayLike, s: float) -> Pose:
     """Pose at fraction ``s`` in [0, 1] between T0 and T1: linear position, slerp rotation."""
+    from scipy.spatial.transform import Rotation, Slerp
+
     A = np.asarray(T0, dtype=np.float64)
     B = np.asarray(T1, dtype=np.float64)
     slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([A[:3, :3], B[:3, :3]])))
@@ -181,12 +211,16 @@ def pose_from_rvec_tvec(rvec: ArrayLike, tvec_mm: ArrayLike) -> Pose:
 
     solvePnP returns ``T_cam_object``: the object frame expressed in the camera frame.
     """
+    from scipy.spatial.transform import Rotation
+
     r = np.asarray(rvec, dtype=np.float64).reshape(3)
     return make_pose(Rotation.from_rotvec(r).as_matrix(), np.asarray(tvec_mm, float).reshape(3))
 
 
 def pose_to_rvec_tvec(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(rvec, tvec_mm) in OpenCV's convention, inverse of :func:`pose_from_rvec_tvec`."""
+    from scipy.spatial.transform import Rotation
+
     A = np.asarray(T, dtype=np.float64)
     return Rotation.from_matrix(A[:3, :3]).as_rotvec(), A[:3, 3].copy()
 
@@ -194,7 +228,8 @@ def pose_to_rvec_tvec(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.flo
 def rotation_about(axis: Sequence[float], angle: float) -> NDArray[np.float64]:
     """3x3 rotation of ``angle`` (rad) about a unit ``axis``."""
     a = np.asarray(axis, dtype=np.float64)
-    return np.asarray(Rotation.from_rotvec(a / np.linalg.norm(a) * angle).as_matrix())
+    a = a / np.linalg.norm(a)
+    return quat_wxyz_to_matrix([np.cos(angle / 2), *(np.sin(angle / 2) * a)])
 
 
 def translation_error_mm(Ta: ArrayLike, Tb: ArrayLike) -> float:
@@ -206,7 +241,8 @@ def rotation_error_deg(Ta: ArrayLike, Tb: ArrayLike) -> float:
     """Angle of the relative rotation between two poses (degrees, in [0, 180])."""
     Ra = np.asarray(Ta, dtype=np.float64)[:3, :3]
     Rb = np.asarray(Tb, dtype=np.float64)[:3, :3]
-    return float(np.degrees(Rotation.from_matrix(Ra.T @ Rb).magnitude()))
+    q = matrix_to_quat_wxyz(Ra.T @ Rb)
+    return float(np.degrees(2 * np.arctan2(np.linalg.norm(q[1:]), abs(q[0]))))
 
 
 def pose_error(Ta: ArrayLike, Tb: ArrayLike) -> tuple[float, float]:

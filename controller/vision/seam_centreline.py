@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.interpolate import CubicSpline
-from scipy.signal import savgol_filter
 
+from controller.vision.scipy_equivalents import CubicSpline, savgol_filter
 from controller.vision.seam_ends import end_offset, measure_tails
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import fit_at, resample, track_on

@@ -15,8 +15,8 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import erf
 
+from controller.vision.scipy_equivalents import erf
 from controller.vision.seam_params import F64, DetectParams
 
 
