@@ -5,18 +5,16 @@ from calibration.targets import parse_board_spec
 from controller.geometry.camera_model import default_camera
 from controller.geometry.kinematics import flange_pose, irb2400
 from controller.geometry.poses import invert, make_pose, pose_error
-from drivers.sim.sim_board import (
+from drivers.sim.sim_board import SimBoardCamera, simulate_session, write_view_folder
+from drivers.sim.sim_board_render import (
     BLACK,
     TABLE,
     WHITE,
-    SimBoardCamera,
     _linear_kernel,
     _ray_grid,
     board_reflectance,
     render_board,
-    simulate_session,
     true_corners,
-    write_view_folder,
 )
 
 CAM = default_camera(640, 480)
