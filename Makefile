@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test demo lint venv clean bench browser mutation planted
+.PHONY: test demo lint venv clean bench bench-quick browser mutation planted
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -36,6 +36,9 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/run_all.py
+
+bench-quick: $(STAMP)
+	$(BIN)/python bench/run_all.py --quick
 
 # Safety paths (issue 19; README "Safety"): not in make test or CI, they take long.
 # planted: the 21 hand-planted bugs, each must fail a test. mutation: cosmic-ray over the
