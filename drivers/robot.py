@@ -1,9 +1,10 @@
 """``open_robot(url)``: the one registry of robot links, and the robot interface's public names.
 
 The interface itself is in :mod:`drivers.robot_interface` (``Robot``, ``MotionHandle``,
-``Event``) and the validated commands with their :class:`SafetyLimits` in
-:mod:`drivers.robot_commands`; both are re-exported here, the module to import robots from. The
-link (:mod:`drivers.abb`) imports those two and never this one, so imports run one way.
+``Event``, ``MotionTimeout``) and the validated commands with their :class:`SafetyLimits` in
+:mod:`drivers.robot_commands`; the interface and ``SafetyLimits`` are re-exported here, the
+module to open robots from. The link (:mod:`drivers.abb`) imports those two and never this one,
+so imports run one way.
 
 The controller only sees :class:`Robot`; it cannot tell the mock from the real controller. Robots
 are chosen by URL through one explicit registry (:func:`open_robot`):
@@ -27,20 +28,12 @@ from typing import Any
 
 from controller.errors import ConfigError
 from drivers.abb.abb_robot import AbbRobot
-from drivers.robot_commands import (
-    MoveJoints,
-    MoveLinear,
-    PathTargets,
-    SafetyLimits,
-    ToolData,
-    WeldRun,
-)
+from drivers.robot_commands import SafetyLimits
 from drivers.robot_interface import DEFAULT_TIMEOUT_S, Event, MotionHandle, MotionTimeout, Robot
 
 # The public names of the robot interface, importable from here (the module users open robots with).
-__all__ = ["DEFAULT_TIMEOUT_S", "ROBOT_SCHEMES", "Event", "MotionHandle", "MotionTimeout",
-           "MoveJoints", "MoveLinear", "PathTargets", "Robot", "SafetyLimits", "ToolData",
-           "WeldRun", "open_robot", "serial_schemes"]
+__all__ = ["DEFAULT_TIMEOUT_S", "ROBOT_SCHEMES", "Event", "MotionHandle", "MotionTimeout", "Robot",
+           "SafetyLimits", "open_robot", "serial_schemes"]
 
 
 # ---- the registry ---------------------------------------------------------------------------
