@@ -31,6 +31,7 @@ BENCHMARKS: dict[str, tuple[list[str], list[str]]] = {
     "locate_cameras": (["bench/bench_locate_cameras.py"], ["--pairs", "3"]),
     "calibration": (["bench/bench_calibration.py"], ["--seeds", "1", "--views", "12", "--output",
                                                      "bench/out/calibration_quick.json"]),
+    "fixed_pair": (["bench/bench_fixed_pair.py"], ["--seeds", "1", "--views", "12"]),
     "link_time": (["bench/bench_link_time.py"], []),
     "soak_link": (["bench/soak_link.py"], ["--requests", "300"]),
     "soak_daemon": (["bench/soak_daemon.py"], ["--cycles", "5"]),
@@ -48,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.list:
         for name in names:
             cmd, quick = BENCHMARKS[name]
-            print(f"{name:12s} python {' '.join(cmd)}   (--quick: {' '.join(quick) or 'same'})")
+            print(f"{name:15s} python {' '.join(cmd)}   (--quick: {' '.join(quick) or 'same'})")
         return 0
     results = []
     for name in names:
