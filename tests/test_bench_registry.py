@@ -13,7 +13,8 @@ def test_run_all_lists_every_benchmark():
     assert spec is not None and spec.loader is not None
     run_all = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(run_all)
-    scripts = {c[-1].replace("bench.", "bench/") + ("" if c[-1].endswith(".py") else ".py")
+    scripts = {next(w if w.endswith(".py") else w.replace(".", "/") + ".py"
+                    for w in c if w.startswith("bench"))
                for c, _ in run_all.BENCHMARKS.values()}
     benches = {f"bench/{p.name}" for p in BENCH.glob("*.py")
                if p.name.startswith(("bench_", "soak_"))}
