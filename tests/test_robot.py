@@ -9,7 +9,14 @@ import pytest
 from controller.errors import ConfigError, InputError, JointLimitError, SafetyError
 from controller.geometry.kinematics import IRB2400_LIMITS_DEG, flange_pose, irb2400
 from controller.geometry.poses import make_pose
-from drivers.robot import MoveJoints, MoveLinear, PathTargets, SafetyLimits, ToolData, WeldRun
+from drivers.robot_commands import (
+    MoveJoints,
+    MoveLinear,
+    PathTargets,
+    SafetyLimits,
+    ToolData,
+    WeldRun,
+)
 
 LIMITS = SafetyLimits(workspace_min_mm=(-1000.0, -800.0, 100.0),
                       workspace_max_mm=(1500.0, 900.0, 1600.0), max_speed_mm_s=200.0)
