@@ -23,7 +23,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from bench.bench_detect import scene_case
+from bench.detect_cases import case_list, load_case, render_case
 from controller.errors import AmbiguousSeam, SeamNotFound
 from controller.vision.seam_detect import detect_seam
 
@@ -56,9 +56,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--real", action="store_true")
     a = ap.parse_args(argv)
     rows: list[tuple[str, Any, float, float]] = []
-    for seed in range(a.scenes):
-        img, _ = scene_case("medium", seed)
-        rows.append((f"medium {seed}", img.shape, *_time(img, a.runs, a.blocks)))
+    for case in case_list("classic", "medium", "tuning", a.scenes):
+        render_case(case)  # cached under bench/cache after the first run
+        imgs, _ = load_case(case)
+        rows.append((f"medium {case[3]}", imgs[0].shape, *_time(imgs[0], a.runs, a.blocks)))
     if a.real:
         root = Path(__file__).resolve().parents[2] / "shared" / "data" / "real-seams" / "images"
         for f in sorted(root.glob("*.jpg")):
