@@ -15,6 +15,7 @@ cannot tell a mock from the real thing.
 
 from __future__ import annotations
 
+import functools
 import logging
 import threading
 import time
@@ -38,6 +39,7 @@ from controller.cell.cycle_record import CycleRecord
 from controller.cell.cycle_result import CycleResult, CycleTimeout
 from controller.cell.guidance import (
     Detector,
+    GuidanceSettings,
     Located,
     ViewInput,
     locate_views,
@@ -109,7 +111,6 @@ class WeldCycle:
         self.records_root = records_root
         self.record: CycleRecord | None = None
         self.result = CycleResult(status="incomplete")
-        self.settings = settings_from_job(job)
         self._view_index = 0
         self._groups: list[list[int]] = []
         self._group_index = 0
@@ -123,6 +124,11 @@ class WeldCycle:
         build_machine(self)
 
     # ------------------------------------------------------------------ machine callbacks
+
+    @functools.cached_property
+    def settings(self) -> GuidanceSettings:
+        """The pipeline settings of the job (read when the cycle first locates)."""
+        return settings_from_job(self.job)
     def more_views(self) -> bool:
         """Condition: views remain to be captured."""
         return self._group_index + 1 < len(self._groups)
