@@ -18,9 +18,13 @@ from drivers.rapid_vm.program import Program
 from drivers.rapid_vm.vm_controller import RAPID_DIR, RapidController
 
 SERVER = (RAPID_DIR / "SGSERVER.mod").read_text()
+# t_main waits for one byte from the PC before it replies: a line written before the test has
+# opened the port would be flushed by the open (pyserial resets the input buffer).
 LONG_REPLIES = f'''MODULE SGTEST
   PROC t_main()
+    VAR num go;
     Open "sio1:", ch \\Bin;
+    go := ReadBin(ch);
     Reply 0, "OK {"x" * 68}";
     Reply 0, "OK {"y" * 74}";
     Close ch;
@@ -59,6 +63,8 @@ def served(ctl: RapidController) -> Iterator[Raw]:
     path = ctl.serve_pty()
     try:
         with serial.serial_for_url(path, timeout=10.0) as port:  # bounds a failure only
+            if getattr(ctl, "entry", None) == "t_main":
+                port.write(b"\n")  # the test program's go-ahead (see LONG_REPLIES)
             yield Raw(port)
     finally:
         ctl.stop()
