@@ -94,7 +94,7 @@ def test_operator_starts_confirms_and_reads_the_record(browser, tmp_path):
         # The page followed the daemon: 0.5 s after the daemon entered a state that lasted
         # 0.6 s or more, the page showed it (a state shorter than the poll may be skipped).
         daemon_states = [(t, s) for (t, s) in states if s is not None]
-        checked = 0
+        checked = []
         for (t, s), (t_next, _) in zip(daemon_states, daemon_states[1:] + [(time.time(), None)],
                                        strict=True):
             if t_next - t < 0.6 or s in ("done", "fault", "aborted"):
@@ -103,8 +103,9 @@ def test_operator_starts_confirms_and_reads_the_record(browser, tmp_path):
             assert before and before[-1] == s, \
                 f"0.5 s after the daemon entered {s} the page showed {before[-1:]}: " \
                 f"{daemon_states} {page_states}"
-            checked += 1
-        assert checked >= 4, daemon_states
+            checked.append(s)
+        # confirming always lasts (it waits for the click); the others depend on the machine
+        assert "confirming" in checked and len(checked) >= 2, (checked, daemon_states)
         # The record opens as a page, with its images.
         browser.find_element(By.ID, "last-record-link").click()
         wait.until(lambda b: b.find_element(By.ID, "outcome").text == "done")
