@@ -11,7 +11,7 @@ rounded to single precision; a string result over 80 characters stops the progra
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from drivers.rapid_vm.errors import RapidError, RapidLoadError, RapidStop
 from drivers.rapid_vm.frames import (
@@ -31,8 +31,28 @@ from drivers.rapid_vm.frames import (
 from drivers.rapid_vm.operators import BINOPS, as_bool, as_num
 from drivers.rapid_vm.values import RECORDS, component_type, convert, copy, f32
 
-if TYPE_CHECKING:
-    from drivers.rapid_vm.program import Program
+
+class Program(Protocol):
+    """What compiled code reads of a :class:`drivers.rapid_vm.program.Program` (the loaded task).
+
+    A protocol rather than an import: the program compiles its routines with this module.
+    """
+
+    builtins: dict[str, Any]
+    constants: dict[str, float]
+    globals: dict[str, Any]
+    global_types: dict[str, tuple[str, int, str]]
+    routines: dict[str, Any]
+    pending: list[Any]
+    in_trap: bool
+    probes: dict[str, Callable[[str, Any], None]]
+    killed: Callable[[], None]
+
+    def connect(self, trap: Any) -> float:
+        """CONNECT an interrupt to a trap routine."""
+
+    def run_traps(self) -> None:
+        """Run the traps whose interrupts are pending."""
 
 Expr = Callable[[Frame], Any]
 Node = tuple[Any, ...]

@@ -10,12 +10,41 @@ lie *over* the joint (tack welds, spatter balls), with the seam arc-length spans
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from drivers.sim.sim_scene import Scene
+
+class Scene(Protocol):
+    """What the clutter reads of a :class:`drivers.sim.sim_scene.Scene` (mm, the sheet frame).
+
+    A protocol rather than an import: sim_scene builds its clutter with this module.
+    """
+
+    @property
+    def chord_mm(self) -> float:
+        """Chord of the seam (mm)."""
+
+    @property
+    def gap_mm(self) -> float:
+        """Gap width (mm)."""
+
+    @property
+    def look(self) -> Any:
+        """The scene's :class:`~drivers.sim.sim_look.Look`, or None for the classic look."""
+
+    @property
+    def b_range_mm(self) -> tuple[float, float]:
+        """Lateral extent of the seam (mm)."""
+
+    def arc_table(self) -> tuple[Any, Any]:
+        """Arc parameter and arc length along the seam (mm)."""
+
+    def seam_b(self, a: Any) -> Any:
+        """Lateral offset of the seam at ``a`` (mm)."""
+
+    def seam_db(self, a: Any) -> Any:
+        """Slope of the seam at ``a``."""
 
 
 @dataclass(frozen=True)
