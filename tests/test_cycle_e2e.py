@@ -247,4 +247,6 @@ def test_a_whole_cycle_through_the_rapid_server_itself(tmp_path):
         assert len(w) == 1 and w[0]["result"] == "done" and w[0]["points_reached"] >= 2
         assert rig.mock.arc_on is False and rig.mock.stopped_with is None
         log = rig.mock.action_log
-        assert log[log.index("arc_on") - 1:] == ["start weld", "arc_on", "arc_off"]  # weld only
+        # the arc is on over the weld pass only: its first point reached dry, departed dry
+        assert log[log.index("arc_on") - 2:] == ["start move_linear", "start weld", "arc_on",
+                                                 "arc_off", "start move_linear"]

@@ -30,8 +30,9 @@ def test_fixed_stereo_dry_run_has_no_motion_before_the_weld(tmp_path, capsys):
     states = [s["state"] for s in doc["states"]]
     assert states == ["capturing", "locating", "planning", "welding", "done"]
     assert doc["robot_motions_before_weld"] == 0 and len(doc["capture_skew_ms"]) == 1
-    # The controller's own log: the weld step's approach move, then the weld; nothing before.
-    assert kinds[0] == "move_joints" and kinds.index("weld") == 1, kinds
+    # The controller's own log: the weld step's approach moves (to the approach point, then dry
+    # to the seam's first point), the weld, the dry depart; nothing before.
+    assert kinds == ["move_joints", "move_linear", "weld", "move_linear"], kinds
     # The record's view files replay with one calibration per camera.
     views = [json.loads((r.record_path / f"{n}.json").read_text()) for n in ("left", "right")]
     assert [v["camera"] for v in views] == ["left", "right"]

@@ -1,16 +1,11 @@
-"""One weld cycle: drive the robot and camera through the cycle machine's states.
-
-The states are those of :mod:`controller.cell.cycle_machine`.
+"""One weld cycle: drive the robot and camera through the states of ``cell.cycle_machine``.
 
 The cycle orchestrates; the maths is in pure functions (detect, locate, plan). Fallible work is
 done *before* the state change that reports it, so a failure leaves the machine in the state where
 it happened and then goes to ``fault``. Every blocking call gets the time left in its state. On
 ``fault`` or ``aborted`` the robot is made safe first: arc off, motion stopped (the robot's
-``abort``), then the configured safe pose when the link still works. Nothing is sent to the robot
-for welding unless detection, triangulation quality, planning and reach checks all passed.
-
-The robot and camera are the two small interfaces of drivers/ (``Robot``, ``Camera``); the cycle
-cannot tell a mock from the real thing.
+``abort``), then the safe pose when the link still works. Nothing is sent to the robot for welding
+unless detection, quality, planning and reach checks all passed; the arc is on over the seam only.
 """
 
 from __future__ import annotations
@@ -68,10 +63,7 @@ def _default_detector() -> Detector:
 
 
 class WeldCycle:
-    """Runs one cycle of ``job``; construct, then :meth:`run` (blocking) in one thread.
-
-    ``request_abort`` may be called from any other thread at any time.
-    """
+    """Runs one cycle of ``job``: construct, :meth:`run` (blocking); abort from any thread."""
 
     state: CycleState
     # Triggers bound by transitions (declared for type checkers; not assigned, so the machine
@@ -357,11 +349,17 @@ class WeldCycle:
         self.robot.move_joints(approach.joints_deg, speed_mm_s=self.job.views[0].speed_mm_s
                                ).wait(timeout_s=self._remaining(t))
         self._check_abort()
+        # Arc on over the seam only: reach its first point and leave for the depart dry.
+        speed = path.params.speed_mm_s
+        self.robot.move_linear(path.weld_targets[0].T_base_tcp, speed_mm_s=speed
+                               ).wait(timeout_s=self._remaining(t))
+        self._check_abort()
         self.robot.upload_path(*path.upload())
         self._check_abort()
-        handle = self.robot.run_weld(speed_mm_s=path.params.speed_mm_s)
-        handle.wait(timeout_s=self._remaining(t))
+        self.robot.run_weld(speed_mm_s=speed).wait(timeout_s=self._remaining(t))
         self._check_abort()
+        self.robot.move_linear(path.targets[-1].T_base_tcp, speed_mm_s=speed
+                               ).wait(timeout_s=self._remaining(t))
 
     # ------------------------------------------------------------------ ending
     def _make_safe(self, move_to_safe_pose: bool) -> None:

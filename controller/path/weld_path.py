@@ -114,18 +114,18 @@ class WeldPath:
         return [t.to_dict(i) for i, t in enumerate(self.targets)]
 
     def upload(self) -> tuple[list[F64], list[F64 | None]]:
-        """What goes to the controller after the approach: TCP poses and their circle points.
+        """What the weld pass runs, arc on: TCP poses from the first to the last weld target.
 
-        The first weld target (a MoveL from the approach), then the fitted segments' ends (a
-        MoveC where a segment has a circle point), or every weld target when none were fitted,
-        then the depart (a MoveL).
+        The first weld target (where the torch already is: the cycle reaches it dry from the
+        approach), then the fitted segments' ends (a MoveC where a segment has a circle point),
+        or every weld target when none were fitted. The depart is not in it: the arc goes off at
+        the last weld target and the cycle departs dry.
         """
         weld = self.weld_targets
-        depart = [t.T_base_tcp for t in self.targets if t.kind == "depart"]
         if not self.segments:
-            return [t.T_base_tcp for t in weld] + depart, [None] * (len(weld) + len(depart))
-        ends = [weld[0].T_base_tcp] + [s.T_end for s in self.segments] + depart
-        circles = [None] + [s.via_mm for s in self.segments] + [None] * len(depart)
+            return [t.T_base_tcp for t in weld], [None] * len(weld)
+        ends = [weld[0].T_base_tcp] + [s.T_end for s in self.segments]
+        circles = [None] + [s.via_mm for s in self.segments]
         return ends, circles
 
 
