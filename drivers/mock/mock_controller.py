@@ -195,19 +195,32 @@ def open_mock_robot(url: str, *, limits: Any = None, timeout_s: float = 5.0,
     The client's ack timeout and status poll are set from the mock's simulated speeds unless given.
     The mock is stopped when the robot is closed. Raises :class:`ConfigError` for bad options.
     """
-    from drivers.abb.abb_link import line_time_s
-    from drivers.abb.abb_robot import AbbRobot
-
     parsed = urllib.parse.urlsplit(url)
     if parsed.netloc or parsed.path not in ("", "/"):
         raise ConfigError(f"mock URL {url!r} takes options only: mock://?seed=7&drop=0.01")
     mock = MockController(**parse_mock_options(parsed.query))
-    wire = line_time_s(2 * (codec.MAX_LINE + 1), mock.line.baud)
-    link_options.setdefault("ack_timeout_s", 0.15 + mock.line.delay_s + wire)
-    link_options.setdefault("status_poll_s", max(0.3, 4 * link_options["ack_timeout_s"]))
-    link_options.setdefault("session", 1 + mock.seed % 999)
-    robot = AbbRobot("mock://", limits=limits, timeout_s=timeout_s, **link_options)
-    robot.mock = mock
-    robot.prepare = mock.serve_pty
-    robot._owned.append(mock)
+    return robot_on_simulated_controller("mock://", mock, limits=limits, timeout_s=timeout_s,
+                                         processing_s=0.15, min_poll_s=0.3, **link_options)
+
+
+def robot_on_simulated_controller(url: str, ctl: Any, *, limits: Any, timeout_s: float,
+                                  processing_s: float, min_poll_s: float,
+                                  **link_options: Any) -> Any:
+    """An AbbRobot on a simulated controller ``ctl`` (the mock or the RAPID interpreter).
+
+    Unless given, the ack timeout is the controller's ``processing_s`` (s) plus the line's delay
+    and the wire time of a request and its reply at the line's baud; the status poll is four of
+    those (at least ``min_poll_s``). ``robot.mock`` is ``ctl``; it is stopped with the robot.
+    """
+    from drivers.abb.abb_link import line_time_s
+    from drivers.abb.abb_robot import AbbRobot
+
+    wire = line_time_s(2 * (codec.MAX_LINE + 1), ctl.line.baud)
+    link_options.setdefault("ack_timeout_s", processing_s + ctl.line.delay_s + wire)
+    link_options.setdefault("status_poll_s", max(min_poll_s, 4 * link_options["ack_timeout_s"]))
+    link_options.setdefault("session", 1 + ctl.seed % 999)
+    robot = AbbRobot(url, limits=limits, timeout_s=timeout_s, **link_options)
+    robot.mock = ctl
+    robot.prepare = ctl.serve_pty
+    robot._owned.append(ctl)
     return robot

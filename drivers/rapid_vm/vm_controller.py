@@ -302,19 +302,12 @@ def open_rapid_robot(url: str, *, limits: Any = None, timeout_s: float = 5.0,
     ``robot.mock`` is the :class:`RapidController`. ConfigError for bad options or a module that
     does not load.
     """
-    from drivers.abb.abb_link import line_time_s
-    from drivers.abb.abb_robot import AbbRobot
+    from drivers.mock.mock_controller import robot_on_simulated_controller
 
     parsed = urllib.parse.urlsplit(url)
     if parsed.netloc or parsed.path not in ("", "/"):
         raise ConfigError(f"rapid URL {url!r} takes options only: rapid://?seed=7&drop=0.01")
     ctl = RapidController(**parse_rapid_options(parsed.query))
-    wire = line_time_s(2 * 81, ctl.line.baud)
-    link_options.setdefault("ack_timeout_s", 0.3 + ctl.line.delay_s + wire)
-    link_options.setdefault("status_poll_s", max(0.5, 4 * link_options["ack_timeout_s"]))
-    link_options.setdefault("session", 1 + ctl.seed % 999)
-    robot = AbbRobot("rapid://", limits=limits, timeout_s=timeout_s, **link_options)
-    robot.mock = ctl
-    robot.prepare = ctl.serve_pty
-    robot._owned.append(ctl)
-    return robot
+    # The interpreter is slower per request than the mock: more processing time, slower polls.
+    return robot_on_simulated_controller("rapid://", ctl, limits=limits, timeout_s=timeout_s,
+                                         processing_s=0.3, min_poll_s=0.5, **link_options)
