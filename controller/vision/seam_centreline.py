@@ -17,9 +17,16 @@ from controller.vision.seam_ends import end_offset, measure_tails
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import fit_at, resample, track_on
 
+_MAX_PATCHES = 4  # covered patches (tack welds) crossed per candidate
 
-def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> None:
-    """Fill in ``c.points``, ``c.width``, ``c.end_kinds`` and ``c.score``, or ``c.why_rejected``."""
+
+def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
+           crossed: int = 0) -> None:
+    """Fill in ``c.points``, ``c.width``, ``c.end_kinds`` and ``c.score``, or ``c.why_rejected``.
+
+    Where an end is a covered patch (a tack weld: the gap goes on beyond it) the candidate is
+    extended to the gap beyond and refined again (``crossed``: patches crossed so far).
+    """
     pts, nrm = resample(c.polyline, p.step_px, extend=24.0)
     fit = fit_at(grey, lut, pts, nrm, p)
     # The coarse search loses a faint stretch of the gap (thin, blurred, low contrast); the
@@ -71,6 +78,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
     parts: list[F64] = []
     ders: list[F64] = []
     end_kinds: list[str] = []
+    beyonds: list[F64 | None] = []
     lo, hi = 0, len(pts_run)
     for first in (True, False):
         seq = pts_run if not first else pts_run[::-1]  # seq runs toward this end
@@ -85,8 +93,9 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
             e_pt = seq[-1]
             tang = seq[-1] - seq[max(0, L - 4)]
             tang /= np.linalg.norm(tang) + 1e-12
-        k_end, end_kind = end_offset(grey, lut, e_pt, tang, w_med)
+        k_end, end_kind, beyond = end_offset(grey, lut, e_pt, tang, w_med)
         end_kinds.append(end_kind)
+        beyonds.append(beyond)
         if use_extrap:
             # Extrapolated points from the last trusted sample to the end, one per step.
             t_end = k_end / max(float(np.linalg.norm(d_pt)), 1e-9)
@@ -105,6 +114,16 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
         else:
             hi = keep_n
         parts.append(ext)
+    if "covered" in end_kinds and crossed < _MAX_PATCHES:
+        # Across the patch to the gap beyond, and the whole candidate again: the profiles across
+        # the patch fail, and the run bridges them as a hole (reported as occluded).
+        b0, b1 = beyonds
+        poly = np.vstack([b0[::-1] if b0 is not None else pts_run[:0], pts_run,
+                          b1 if b1 is not None else pts_run[:0]])
+        c.polyline = poly
+        c.length_px = float(np.sum(np.linalg.norm(np.diff(poly, axis=0), axis=1)))
+        refine(grey, lut, c, p, crossed + 1)
+        return
     if use_extrap:
         parts = measure_tails(grey, lut, parts, ders, w_med, p)
     parts[0] = parts[0][::-1]
@@ -127,6 +146,12 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams) -> 
         c.why_rejected = f"gap run only {length:.0f} px long (< {p.min_length_px:.0f})"
         return
     c.length_px = length
+    if "covered" in c.end_kinds:
+        # Stopped by a tack weld or spatter with the same gap beyond: the seam goes on, so this
+        # piece's end is not the joint's. The whole-image valley path bridges such patches.
+        c.why_rejected = (f"gap of {length:.0f} px stops at a covered patch (a tack weld, "
+                          "spatter) with the gap going on beyond it: not an end")
+        return
     if "open" in c.end_kinds:
         # A joint ends where a sheet ends or leaves the image; a line that fades out inside a
         # sheet (the sheet going on beside it) is a pen or soapstone line or a scratch.

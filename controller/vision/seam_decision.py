@@ -43,7 +43,7 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
             "nominal seam hint", best_px=summary_px(best, x0, y0),
             second_px=summary_px(second, x0, y0), **details)
     conf, reasons = rate_confidence(best, ratio)
-    if "open" in best.end_kinds:
+    if "open" in best.end_kinds or "covered" in best.end_kinds:
         # A point inside a sheet is never returned as an end, at any confidence threshold.
         raise SeamNotFound("best seam candidate fades out inside a sheet at one end (a joint "
                            "ends at a sheet border or leaves the image): "

@@ -83,11 +83,12 @@ def _moving_line(x: F64, win: int) -> F64:
 
 
 def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
-               w_med: float) -> tuple[float, str]:
+               w_med: float) -> tuple[float, str, F64 | None]:
     """Distance (px, along ``tang``) from ``e_pt`` to the seam's end, and what ends it there.
 
-    The kind is ``"sheet border"``, ``"image border"`` or ``"open"`` (the gap fades out inside a
-    sheet: a pen mark or scratch does that, a joint does not).
+    The kind is ``"sheet border"``, ``"image border"``, ``"open"`` (the gap fades out inside a
+    sheet: a pen mark or scratch does that, a joint does not) or ``"covered"`` (something on the
+    joint stops the gap, which goes on beyond it: :func:`gap_resumes`).
 
     The end is where the sheets end. Each side of the gap is read on two lines parallel to the
     centreline just outside the gap, and the gap itself on the centreline; where a sheet border
@@ -117,7 +118,62 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
         k, kind = 0.0, "open"
     if k_border <= k:
         k, kind = k_border, "image border"
-    return float(k), kind
+    beyond = None
+    if kind.endswith("sheet border"):
+        beyond = gap_resumes(grey, lut, e_pt + k * tang, tang, w_med, k_border - k)
+        if beyond is not None:
+            # What stopped the gap is a patch on the joint (a tack weld, spatter, slag, a marker
+            # ring), not the end of the sheets: the same gap goes on beyond it.
+            kind = "covered"
+    return float(k), kind, beyond
+
+
+_RESUME_REACH_PX = 260.0  # longest covered stretch looked across (a tack weld ~5-12 mm)
+_RESUME_RUN_PX = 40.0  # the gap must be seen again over this length, in one run
+_FAN_DEG = (0.0, -6.0, 6.0, -12.0, 12.0, -18.0, 18.0, -24.0, 24.0)
+
+
+def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med: float,
+                room_px: float) -> F64 | None:
+    """Where the gap (median width ``w_med`` px) is seen again beyond ``end_pt`` (px), or None.
+
+    Looks along ``tang`` (unit, pointing out of the seam) from 12 px past the end to
+    ``_RESUME_REACH_PX`` (or ``room_px``, the distance to the image border), in a fan of
+    directions (a curved seam leaves a straight line: +-24 deg covers a radius down to about
+    half the reach), for a run of at least ``_RESUME_RUN_PX`` of profiles that fit a gap of
+    about the same width close to the line. A sheet border has the table beyond it; a tack weld
+    or a spatter ball has the same joint beyond it. Returns the measured centres of the longest
+    such run (M, 2) px, in order away from the end.
+    """
+    from controller.vision.seam_params import DetectParams  # the defaults, not a caller's tuning
+    p = DetectParams()
+    reach = min(_RESUME_REACH_PX, room_px - 6.0)
+    if reach < 12.0 + _RESUME_RUN_PX:
+        return None
+    ks = np.arange(12.0, reach, p.step_px)
+    need = int(np.ceil(_RESUME_RUN_PX / p.step_px))
+    dirs = []
+    for a in np.radians(_FAN_DEG):
+        c, s = np.cos(a), np.sin(a)
+        dirs.append(np.array([c * tang[0] - s * tang[1], s * tang[0] + c * tang[1]]))
+    pts = np.vstack([end_pt + np.outer(ks, d) for d in dirs])
+    nrm = np.vstack([np.tile([-d[1], d[0]], (len(ks), 1)) for d in dirs])
+    fit = fit_at(grey, lut, pts, nrm, p)
+    off = np.einsum("kd,kd->k", fit["centre"] - pts, nrm)
+    ok = (fit["valid"] & (np.abs(off) < 6.0) & (fit["width"] < 2.0 * w_med + 2.0)
+          & (fit["width"] > 0.4 * w_med - 1.0)).reshape(len(dirs), len(ks))
+    centres = fit["centre"].reshape(len(dirs), len(ks), 2)
+    best: tuple[int, F64] | None = None
+    for row, cen in zip(ok, centres, strict=True):
+        m = np.concatenate([[0], row.astype(np.int8), [0]])
+        st, en = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
+        if st.size == 0:
+            continue
+        j = int(np.argmax(en - st))
+        n = int(en[j] - st[j])
+        if n >= need and (best is None or n > best[0]):
+            best = (n, cen[st[j]:en[j]])
+    return None if best is None else np.asarray(best[1])
 
 
 def _border_line(offs: tuple[float, ...],

@@ -132,7 +132,7 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
         e_pt = centre[-1]
         tang = centre[-1] - centre[max(0, len(centre) - 6)]
         tang /= np.linalg.norm(tang) + 1e-12
-        k_end, kind = end_offset(grey, lut, e_pt, tang, w_med)
+        k_end, kind, _ = end_offset(grey, lut, e_pt, tang, w_med)
         if kind != "image border" and _near_border(e_pt, W, H, 2.0 * f + 4.0):
             kind, k_end = "image border", _border_crossing(e_pt, tang, W, H, 0.0)
         # The end where the sheets (or the image) end: the path trimmed there, or extended.
@@ -156,7 +156,10 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     # A gap is a slot through the material: of two valley lines otherwise alike (the gap and the
     # edge line of a ground strip, a scribed line), the wider one is the gap.
     c.score = c.length_px * min(c.depth, 0.5) * float(sup.mean()) * float(np.sqrt(w_med))
-    if "open" in c.end_kinds:
+    if "covered" in c.end_kinds:
+        c.why_rejected = (f"valley path of {c.length_px:.0f} px stops at a covered patch (a tack "
+                          "weld, spatter) with the gap going on beyond it: not an end")
+    elif "open" in c.end_kinds:
         c.why_rejected = (f"dark line of {c.length_px:.0f} px fades out inside a sheet "
                           "(a pen or soapstone line, a scratch: not a joint)")
         # A whole-image path may have joined a line with pieces of another: a rejected line as

@@ -1,0 +1,59 @@
+"""Tack welds on the joint are crossed, not taken for the sheets' end (issue 13, item 3)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from controller.vision.seam_detect import detect_seam
+
+SLOPE = 0.02  # the gap's slope in the image (px per px)
+
+
+def _plates(tacks: tuple[int, ...], table_from: int | None = None, seed: int = 0) -> np.ndarray:
+    """Two sheets (grey 165 over 150) meeting along a 3 px dark gap near row 350, left to right.
+
+    ``tacks``: columns of tack welds (a bright bead of radius 30 px with a dark crater) on the
+    gap; ``table_from``: column from which both sheets stop and a dark table is seen (a joint
+    end), else the gap leaves the image at both sides.
+    """
+    rng = np.random.default_rng(seed)
+    H, W = 700, 1000
+    img = np.full((H, W), 150.0)
+    img[:352] = 165.0
+    yy, xx = np.mgrid[0:H, 0:W]
+    centre = 350.5 + SLOPE * (xx - 500)
+    img[np.abs(yy - centre) < 1.6] = 40.0
+    for cx in tacks:
+        d = np.hypot(xx - cx, yy - (350.5 + SLOPE * (cx - 500)))
+        img[d < 30] = 215.0
+        img[d < 12] = 90.0
+    if table_from is not None:
+        img[:, table_from:] = 60.0
+    img = cv2.GaussianBlur(img, (0, 0), 1.2) + rng.normal(0.0, 3.0, img.shape)
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_tack_welds_are_bridged_not_ends(seed: int) -> None:
+    det = detect_seam(_plates((380, 700), seed=seed))
+    # Before gap_resumes, the first tack was a "sheet border": half the seam, a joint_end at
+    # u=351, confidence 1.0.
+    assert det.end_kinds == ("image_border", "image_border")
+    assert det.endpoints_px[0, 0] < 1.0 and det.endpoints_px[1, 0] > 998.0
+    assert len(det.occluded_spans_px) == 2
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(det.points_px, axis=0), axis=1))])
+    for (a, b), cx in zip(det.occluded_spans_px, (380, 700), strict=True):
+        assert a < cx - 20 and b > cx + 20 and b - a < 130  # the bead, not more
+    v_true = 350.5 + SLOPE * (det.points_px[:, 0] - 500)
+    # (the gap is drawn aliased: its middle steps by up to 0.5 px)
+    assert np.max(np.abs(det.points_px[:, 1] - v_true)[~det.occluded]) < 1.0
+    assert s[-1] > 990
+
+
+def test_a_real_sheet_end_past_a_tack_is_still_a_joint_end() -> None:
+    det = detect_seam(_plates((380,), table_from=820))
+    assert det.end_kinds == ("image_border", "joint_end")
+    assert abs(det.endpoints_px[1, 0] - 819.5) < 3.0
+    assert len(det.occluded_spans_px) == 1
