@@ -97,26 +97,35 @@ def executed_vs_planned(executed: np.ndarray, dense: np.ndarray) -> dict[str, fl
             "max_whole_orientation_deg": round(float(np.degrees(whole.magnitude()).max()), 4)}
 
 
-def replay(path: WeldPath, views: list[np.ndarray], baud: int, dense: bool) -> dict[str, Any]:
-    """The cycle's robot calls again on a fresh mock: the path dense (as before) or fitted."""
-    with open_robot(f"mock://?baud={baud}", timeout_s=60.0) as robot:
+def replay(path: WeldPath, views: list[np.ndarray], backend: str, baud: int, dense: bool
+           ) -> dict[str, Any]:
+    """The cycle's robot calls again on a fresh controller: the path dense (before) or fitted.
+
+    The calls the cycle makes (``WeldCycle._weld``): the two views (move, joints, pose), the
+    tool, the approach, the dry line to the weld's start, the upload, the weld, the dry depart.
+    """
+    with open_robot(f"{backend}://?baud={baud}", timeout_s=60.0) as robot:
         acc = timed_robot(robot)
         for v in views:
             robot.move_joints(v, speed_mm_s=200.0).wait(60.0)
             robot.read_joints()
             robot.read_pose()
-        robot.read_joints()
         robot.set_tool(path.params.T_flange_tcp)
         robot.move_joints(path.targets[0].joints_deg, speed_mm_s=200.0).wait(60.0)
+        speed = path.params.speed_mm_s
+        robot.move_linear(path.start, speed_mm_s=speed).wait(60.0)
         if dense:
-            robot.upload_path([t.T_base_tcp for t in path.targets[1:]])
+            sent = [t.T_base_tcp for t in path.weld_targets[1:]]
+            robot.upload_path(sent)
         else:
-            robot.upload_path(*path.upload())
-        robot.run_weld(path.params.speed_mm_s).wait(120.0)
+            sent, circles = path.upload()
+            robot.upload_path(sent, circles, start=path.start)
+        robot.run_weld(speed).wait(120.0)
+        robot.move_linear(path.targets[-1].T_base_tcp, speed_mm_s=speed).wait(60.0)
         st = dict(robot.mock.link_stats)
     total = st["bytes_rx"] + st["bytes_tx"]
     baud = baud or 1_000_000_000  # no wire time
-    return {"path_points_sent": len(path.targets) - 1 if dense else len(path.upload()[0]),
+    return {"path_points_sent": len(sent), "requests": int(st["lines_rx"]),
             "bytes_to_controller": int(st["bytes_rx"]),
             "bytes_from_controller": int(st["bytes_tx"]),
             "computed_s": round(10.0 * total / baud, 2), "measured_s": round(acc["s"], 2)}
@@ -165,6 +174,8 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baud", type=int, default=9600)
     ap.add_argument("--backend", choices=("mock", "rapid"), default="mock")
+    ap.add_argument("--no-replay", action="store_true",
+                    help="skip the replays (the cycle and planning only)")
     args = ap.parse_args()
     rig = SimRig(scene_kind="s_curve", seed=1, difficulty="medium", speedup=1e6,
                  robot_options=f"baud={args.baud}")
@@ -184,26 +195,32 @@ def main() -> int:
                                "segments": len(path.segments),
                                "movec": sum(s.via_mm is not None for s in path.segments)}
         total = st["bytes_rx"] + st["bytes_tx"]
-        out["cycle"] = {"bytes_to_controller": int(st["bytes_rx"]),
+        out["cycle"] = {"requests": int(st["lines_rx"]),
+                        "lines_from_controller": int(st["lines_tx"]),
+                        "bytes_to_controller": int(st["bytes_rx"]),
                         "bytes_from_controller": int(st["bytes_tx"]),
                         "computed_s": round(10.0 * total / args.baud, 2),
                         "measured_in_robot_calls_s": round(acc["s"], 2)}
-        weld = [e for e in rig.mock.executed if e["kind"] == "weld"]
-        if args.backend == "mock" and weld:
-            segs = weld[-1]["tcp_segments"][1:-1]  # the weld: without approach and depart
-            trace = rig.mock.arm.trace({"tcp_segments": segs}, step_mm=0.05)
-            dense = np.array([t.T_base_tcp for t in path.weld_targets])
-            out["executed"] = executed_vs_planned(trace, dense)
+        if args.backend == "mock":  # the pass: one motion of the mock's arm
+            weld = [e for e in rig.mock.executed if e["kind"] == "weld"]
+            segs = weld[-1]["tcp_segments"]
+        else:  # the interpreter's arm runs each move instruction as its own segment
+            segs = [g for e in rig.mock.arm.segments_run if e["arc"] for g in e["tcp_segments"]]
+        trace = rig.mock.arm.trace({"tcp_segments": segs}, step_mm=0.05)
+        dense = np.array([t.T_base_tcp for t in path.weld_targets])
+        out["executed"] = {"segments_run_arc_on": len(segs),
+                           **executed_vs_planned(trace, dense)}
         views = [np.asarray(v.joints_deg) for v in rig.job.views]
         job = rig.job
         normal = np.asarray(job.seam.normal, dtype=np.float64)
         start = views[-1]  # where the cycle plans from: the robot at the last view
-    if args.backend == "mock":
-        out["replay_dense"] = replay(path, views, args.baud, dense=True)
-        out["replay_segments"] = replay(path, views, args.baud, dense=False)
-        # the same calls on an infinitely fast line: the client's and the mock's own time
-        out["replay_segments_no_wire"] = replay(path, views, 0, dense=False)
-        out["replay_dense_no_wire"] = replay(path, views, 0, dense=True)
+    if not args.no_replay:
+        b = args.backend
+        out["replay_dense"] = replay(path, views, b, args.baud, dense=True)
+        out["replay_segments"] = replay(path, views, b, args.baud, dense=False)
+        # the same calls on an infinitely fast line: the client's and the controller's own time
+        out["replay_segments_no_wire"] = replay(path, views, b, 0, dense=False)
+        out["replay_dense_no_wire"] = replay(path, views, b, 0, dense=True)
     out["planning"] = planning_figures(result.seam.points_mm, normal, job.weld_params(),
                                        job.workspace(), start)
     print(json.dumps(out, indent=2))

@@ -136,18 +136,23 @@ class PathTargets:
     """A weld path: TCP poses ``T_base_tcp`` (mm, wobj0), in order; uploaded, never truncated.
 
     ``circles`` (empty, or one entry per target): the circle point (mm) of the ``MoveC`` that
-    reaches the target from the target before it, or None for a ``MoveL``. The first target may
-    not have one (its start is wherever the robot is, which this check does not know).
+    reaches the target from the target before it, or None for a ``MoveL``. The first target's
+    segment starts wherever the robot is: it may have a circle point only when ``start`` (the
+    ``T_base_tcp`` the pass will start from) says where that is, and its circle is checked
+    from there (the robot must then be there when the pass starts: the caller's check).
     """
 
     targets: tuple[F64, ...]
     circles: tuple[F64 | None, ...] = ()
+    start: F64 | None = None
 
     def __post_init__(self) -> None:
         if len(self.targets) == 0:
             raise InputError("upload_path: the path has no points")
         object.__setattr__(self, "targets", tuple(
             check_pose(T, f"path point {i + 1}") for i, T in enumerate(self.targets)))
+        if self.start is not None:
+            object.__setattr__(self, "start", check_pose(self.start, "path start"))
         if not self.circles:
             object.__setattr__(self, "circles", (None,) * len(self.targets))
         if len(self.circles) != len(self.targets):
@@ -162,11 +167,13 @@ class PathTargets:
             if v.shape != (3,) or not np.all(np.isfinite(v)):
                 raise InputError(f"upload_path: circle point of path point {i + 1} must be 3 "
                                  f"finite numbers (mm), got {c!r}")
-            if i == 0:
+            before = self.targets[i - 1] if i > 0 else self.start
+            if before is None:
                 raise InputError("upload_path: the first path point is reached from wherever the "
-                                 "robot is; it cannot be the end of a circle (send a MoveL)")
+                                 "robot is; it can be the end of a circle only when the path's "
+                                 "start is given (else send a MoveL)")
             try:
-                circle = circle_through(self.targets[i - 1][:3, 3], v, self.targets[i][:3, 3])
+                circle = circle_through(before[:3, 3], v, self.targets[i][:3, 3])
             except InputError as err:
                 raise InputError(f"upload_path: path point {i + 1}: {err}") from err
             if np.degrees(circle.sweep_rad) > MAX_SWEEP_DEG + 1e-6:
@@ -187,11 +194,15 @@ class PathTargets:
                               points=len(self.targets), capacity=capacity)
         T_tcp_flange = invert(tool.T_flange_tcp)
         near = None
+        if self.start is not None:
+            limits.check_point(self.start[:3, 3], "path start")
         for i, (T, via) in enumerate(zip(self.targets, self.circles, strict=True)):
             name = f"path point {i + 1}"
             limits.check_point(T[:3, 3], name)
             if via is not None:
-                arc = segment_poses(self.targets[i - 1], T, np.linspace(0, 1, _ARC_SAMPLES), via)
+                before = self.targets[i - 1] if i > 0 else self.start
+                assert before is not None  # __post_init__ refused a circle with no start
+                arc = segment_poses(before, T, np.linspace(0, 1, _ARC_SAMPLES), via)
                 for P in arc:
                     limits.check_point(P[:3, 3], f"the circle to {name}")
                 mid = arc[_ARC_SAMPLES // 2] @ T_tcp_flange

@@ -127,11 +127,15 @@ class Robot(abc.ABC):
 
     @abc.abstractmethod
     def upload_path(self, targets: Sequence[ArrayLike],
-                    circle_points_mm: Sequence[ArrayLike | None] | None = None) -> None:
+                    circle_points_mm: Sequence[ArrayLike | None] | None = None,
+                    start: ArrayLike | None = None) -> None:
         """Upload the weld path (``T_base_tcp`` each); every point checked first; never cut.
 
         The robot reaches each point by a ``MoveL``, or by a ``MoveC`` from the point before
         when ``circle_points_mm`` (one entry per point, None for a MoveL) gives its circle point.
+        The first point's segment starts where the robot is when the pass starts; it may be a
+        circle only when ``start`` (``T_base_tcp``) says where that is, and ``run_weld`` then
+        refuses unless the robot got there by a completed ``move_linear``.
         """
 
     @abc.abstractmethod

@@ -295,6 +295,38 @@ def test_controller_restart_mid_path_is_reported_and_nothing_replayed(scheme):
         assert [e["kind"] for e in mock.executed] == ["move_linear", "weld"]
 
 
+def test_speed_goes_only_when_it_changes_and_again_after_a_restart(scheme):
+    mock = MockController() if scheme == "mock" else RapidController()
+
+    def held() -> float:  # the speed the controller holds (the mock's arm, the program's VAR)
+        if scheme == "mock":
+            return float(mock.arm.speed_mm_s)
+        return float(mock.program.globals["sgspeed"].f["v_tcp"])
+
+    # the interpreter restarts by loading the module again: retransmissions must outlast it
+    with _robot_on(mock, retries=30) as robot:
+        sent: list[str] = []
+        call = robot._call
+
+        def spy(body, timeout_s=None):
+            sent.append(body)
+            return call(body, timeout_s)
+
+        robot._call = spy
+        a, b = [0, 10, 0, 0, 60, 0], [5, 10, 0, 0, 60, 0]
+        for j, v in ((a, 200), (b, 200), (a, 150)):
+            robot.move_joints(j, speed_mm_s=v).wait(5.0)
+        assert [x for x in sent if x.startswith("SV")] == ["SV 200 0", "SV 150 0"]
+        assert held() == 150.0
+        mock.restart()  # the program starts again with its own speed
+        with pytest.raises(LinkError, match="controller restarted"):
+            robot.move_joints(b, speed_mm_s=150)  # refused (no session): nothing moves
+        assert [e["kind"] for e in mock.executed] == ["move_joints"] * 3
+        robot.move_joints(b, speed_mm_s=150).wait(5.0)
+        assert [x for x in sent if x.startswith("SV")] == ["SV 200 0", "SV 150 0", "SV 150 0"]
+        assert held() == 150.0 and len(mock.executed) == 4
+
+
 def test_lost_completion_event_is_recovered_from_status(scheme):
     mock: MockController | RapidController
     if scheme == "mock":

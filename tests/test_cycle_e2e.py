@@ -18,6 +18,7 @@ from controller.cell.cycle_record import read_record
 from controller.cell.dry_run import HOME_JOINTS_DEG, SimRig, run_dry_run
 from controller.errors import CameraError
 from controller.geometry.poses import make_pose
+from controller.path.path_fit import deviation
 
 pytestmark = pytest.mark.slow
 DATA = CHESSBOARD
@@ -241,8 +242,29 @@ def test_a_fault_of_the_pc_while_the_arc_is_on_aborts_then_moves_to_the_safe_pos
 def test_a_whole_cycle_through_the_rapid_server_itself(tmp_path):
     # the controller is SGSERVER.mod run by the RAPID interpreter (rapid://), not the mock
     with SimRig(speedup=200.0, robot_scheme="rapid") as rig:
+        sent: list[str] = []
+        call = rig.robot._call
+        rig.robot._call = lambda body, timeout_s=None: (sent.append(body), call(body, timeout_s))[1]
         result = rig.cycle(tmp_path).run()
         assert result.status == "done", result.reason
+        # joints read once per view (planning starts from the last view's), speed and zone
+        # only when they change, the weld's start (where the dry line left the torch) not sent
+        words = [b.split()[0] for b in sent]
+        assert words.count("RJ") == len(rig.job.views) == 2
+        assert [b for b in sent if b.startswith("SV")] == ["SV 200 0", "SV 8 0", "SV 8 1", "SV 8 0"]
+        path = result.path
+        assert path is not None and len(path.segments) >= 2
+        assert f"PN {len(path.segments)}" in sent
+        assert words.count("XC") == sum(g.via_mm is not None for g in path.segments)
+        # what the interpreter's arm ran with the arc on, segment by segment, against the dense
+        # planned path it replaces: within the job's tolerance (the wire's rounding included)
+        ran = [g for e in rig.mock.arm.segments_run if e["arc"] for g in e["tcp_segments"]]
+        assert len(ran) == len(path.segments)
+        dense = np.array([t.T_base_tcp for t in path.weld_targets])
+        tol = rig.job.path_tolerance()
+        for (T0, T1, via), g in zip(ran, path.segments, strict=True):
+            dev = deviation(T0, T1, via, dense[g.first:g.last + 1])
+            assert tol.admits(dev), (g.first, g.last, dev)
         w = welds(rig.mock)
         assert len(w) == 1 and w[0]["result"] == "done" and w[0]["points_reached"] >= 2
         assert rig.mock.arc_on is False and rig.mock.stopped_with is None

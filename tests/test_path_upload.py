@@ -82,17 +82,21 @@ def test_points_go_as_one_line_or_repeat_the_orientation(robot):
 
 
 def test_target_bodies_fall_back_to_two_lines_when_one_does_not_fit():
-    q = [0.5, -0.5, -0.5, -0.5]
-    long = codec.target_bodies(250, [-1800.0, -1800.0, -1800.0], q)
+    q = np.array([0.512345, -0.487655, -0.512344, -0.487656])
+    q /= np.linalg.norm(q)  # no trailing zeros to drop: the longest numbers
+    long = codec.target_bodies(250, [-1800.123, -1800.456, -1800.789], q)
     assert [b.split()[0] for b in long] == ["XP", "XO"]
     short = codec.target_bodies(12, [1000.0, -50.0, 300.0], q)
     assert [b.split()[0] for b in short] == ["XT"]
-    for body in long + short + codec.target_bodies(3, [1.0, 2.0, 3.0], q, codec.fmt_quat(q)):
+    repeat = codec.target_bodies(3, [1.0, 2.0, 3.0], q, codec.fmt_quat(q, trim=True))
+    assert [b.split()[0] for b in repeat] == ["XP", "XR"]
+    for body in long + short + repeat:
         assert len(codec.encode_frame("Q", 99, body).rstrip(b"\n")) <= codec.MAX_LINE
     # one line: the same slot position and orientation as the two lines
     f = short[0].split()
     p, qq = pos_quat_from_pose(make_pose(t_mm=[1000.0, -50.0, 300.0]))
-    assert f[2:5] == codec.fmt_position(p).split()
+    assert f[2:5] == codec.fmt_position(p, trim=True).split() == ["1000", "-50", "300"]
+    assert [float(v) for v in f[5:]] == [float(v) for v in long[1].split()[2:]]
 
 
 def test_refused_before_a_byte_is_sent(robot):
@@ -131,3 +135,44 @@ def test_server_refuses_a_circle_point_that_makes_no_circle(robot):
     with pytest.raises(ProtocolError, match="circle point 2"):
         robot.run_weld(8.0)
     assert robot.mock.arc_on is False and robot.mock.executed[-1]["kind"] == "move_joints"
+
+
+def test_a_path_may_start_with_a_circle_from_where_a_linear_move_left_the_robot(robot):
+    r, a1 = 30.0, A0 + 1.0
+    first = torch_on_circle(r, A0)
+    end, via = torch_on_circle(r, a1), torch_on_circle(r, A0 + 0.4)[:3, 3]
+    robot.upload_path([end], [via], start=first)  # one point: where the robot is is not sent
+    before = robot.link.stats["bytes_out"]
+    # the robot got here by a joint move: where the circle starts is not known to the client
+    with pytest.raises(SafetyError, match="not known to be there"):
+        robot.run_weld(10.0)
+    robot.move_linear(first @ make_pose(t_mm=[0.0, 0.0, -5.0]), speed_mm_s=50).wait(5.0)
+    with pytest.raises(SafetyError, match="not known to be there"):  # a linear move elsewhere
+        robot.run_weld(10.0)
+    assert robot.mock.executed[-1]["kind"] == "move_linear"
+    assert "arc_on" not in robot.mock.action_log
+    robot.move_linear(first, speed_mm_s=50).wait(5.0)
+    h = robot.run_weld(10.0)
+    h.wait(10.0)
+    assert h.progress == 1 and robot.link.stats["bytes_out"] > before
+    trace = robot.mock.arm.trace(robot.mock.executed[-1], step_mm=0.2)
+    centre = (start_pose() @ make_pose(t_mm=[0.0, 0.0, r]))[:3, 3]
+    assert np.allclose(np.linalg.norm(trace[:, :3, 3] - centre, axis=1), r, atol=1e-3)
+    assert np.allclose(trace[0], first, atol=1e-3) and np.allclose(trace[-1], end, atol=1e-3)
+    with pytest.raises(SafetyError, match="not known to be there"):  # now it is at the end
+        robot.run_weld(10.0)
+
+
+def test_the_circle_to_the_first_point_is_checked_from_the_given_start(robot):
+    s = start_pose()
+    a, b = s @ make_pose(t_mm=[0.0, 0.0, 0.0]), s @ make_pose(t_mm=[0.0, 40.0, 0.0])
+    ang = np.radians(150.0)  # the arc rises 20 mm in the middle (as in the test above)
+    via = (s @ make_pose(t_mm=[0.0, 20.0 + 20.0 * np.cos(ang), 20.0 * np.sin(ang)]))[:3, 3]
+    pts = np.array([a[:3, 3], b[:3, 3], via])
+    robot.limits = SafetyLimits(tuple(pts.min(axis=0) - 1.0), tuple(pts.max(axis=0) + 1.0))
+    before = robot.link.stats["bytes_out"]
+    with pytest.raises(SafetyError, match="circle to path point 1"):
+        robot.upload_path([b], [via], start=a)
+    with pytest.raises(InputError, match="first path point"):  # no start: nothing to check from
+        robot.upload_path([b], [via])
+    assert robot.link.stats["bytes_out"] == before

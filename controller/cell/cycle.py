@@ -109,6 +109,7 @@ class WeldCycle:
         self._view_cams: list[ViewCamera] = []
         self._motions = 0
         self._joints_read: dict[int, np.ndarray] = {}
+        self._joints_now: np.ndarray | None = None  # read after the last (view) motion
         self._state_t0 = clock()
         self._abort = threading.Event()
         self._abort_reason = ""
@@ -247,6 +248,7 @@ class WeldCycle:
         reported = self.robot.read_pose()
         check_pose_consistency(self.model, joints, reported)
         self._joints_read[i] = joints
+        self._joints_now = joints
 
     def _camera_pose(self, i: int) -> np.ndarray:
         """``T_base_cam`` of view ``i``: a fixed camera's calibrated pose, or FK @ hand-eye."""
@@ -324,8 +326,9 @@ class WeldCycle:
 
     def _plan(self, located: Located) -> WeldPath:
         self._remaining(self.job.timeouts.plan_s)
-        path = plan_path(located, self.settings, self.model,
-                         start_joints_deg=np.asarray(self.robot.read_joints()))
+        # from the joints read at the last view (nothing moved since); read if no view moved
+        start = self._joints_now if self._joints_now is not None else self.robot.read_joints()
+        path = plan_path(located, self.settings, self.model, start_joints_deg=start)
         self.result.path = path
         if self.record is not None:
             save_seam(self.record, located.seam, path, self.job)
@@ -351,10 +354,9 @@ class WeldCycle:
         self._check_abort()
         # Arc on over the seam only: reach its first point and leave for the depart dry.
         speed = path.params.speed_mm_s
-        self.robot.move_linear(path.weld_targets[0].T_base_tcp, speed_mm_s=speed
-                               ).wait(timeout_s=self._remaining(t))
+        self.robot.move_linear(path.start, speed_mm_s=speed).wait(timeout_s=self._remaining(t))
         self._check_abort()
-        self.robot.upload_path(*path.upload())
+        self.robot.upload_path(*path.upload(), start=path.start)
         self._check_abort()
         self.robot.run_weld(speed_mm_s=speed).wait(timeout_s=self._remaining(t))
         self._check_abort()

@@ -114,19 +114,24 @@ class WeldPath:
         return [t.to_dict(i) for i, t in enumerate(self.targets)]
 
     def upload(self) -> tuple[list[F64], list[F64 | None]]:
-        """What the weld pass runs, arc on: TCP poses from the first to the last weld target.
+        """What the weld pass runs, arc on: TCP poses from the first weld target to the last.
 
-        The first weld target (where the torch already is: the cycle reaches it dry from the
-        approach), then the fitted segments' ends (a MoveC where a segment has a circle point),
-        or every weld target when none were fitted. The depart is not in it: the arc goes off at
+        The pass starts at the first weld target (:attr:`start`: the cycle reaches it dry from
+        the approach, so it is not sent again), then runs to the fitted segments' ends (a MoveC
+        where a segment has a circle point, the first one from :attr:`start`), or to every
+        other weld target when none were fitted. The depart is not in it: the arc goes off at
         the last weld target and the cycle departs dry.
         """
         weld = self.weld_targets
         if not self.segments:
-            return [t.T_base_tcp for t in weld], [None] * len(weld)
-        ends = [weld[0].T_base_tcp] + [s.T_end for s in self.segments]
-        circles = [None] + [s.via_mm for s in self.segments]
-        return ends, circles
+            rest = weld[1:] or weld  # a one-point weld: that point, where the torch already is
+            return [t.T_base_tcp for t in rest], [None] * len(rest)
+        return [s.T_end for s in self.segments], [s.via_mm for s in self.segments]
+
+    @property
+    def start(self) -> F64:
+        """``T_base_tcp`` where the weld pass starts (the first weld target), mm."""
+        return self.weld_targets[0].T_base_tcp
 
 
 #: Span (mm) of the local cubic fitted to the seam points for each tangent (Savitzky-Golay). The

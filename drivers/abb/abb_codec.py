@@ -157,27 +157,34 @@ class LineSplitter:
 # ---- numbers --------------------------------------------------------------------------------
 
 
-def fmt(value: float, decimals: int) -> str:
-    """A number as the protocol writes it: fixed ``decimals``, never ``-0``, no exponent."""
+def fmt(value: float, decimals: int, trim: bool = False) -> str:
+    """A number as the protocol writes it: ``decimals`` decimals, never ``-0``, no exponent.
+
+    ``trim``: trailing zeros (and then the point) dropped, the same number in fewer bytes
+    (``300.000`` -> ``300``, ``0.500`` -> ``0.5``): how the client writes its requests. Replies
+    keep the fixed form, as RAPID's ``NumToStr`` writes them.
+    """
     s = f"{float(value):.{decimals}f}"
     if float(s) == 0.0:
         s = f"{0.0:.{decimals}f}"
+    if trim and "." in s:
+        s = s.rstrip("0").rstrip(".")
     return s
 
 
-def fmt_joints(joints_deg: ArrayLike) -> str:
+def fmt_joints(joints_deg: ArrayLike, trim: bool = False) -> str:
     """Six controller joint values (deg) with 4 decimals, space separated."""
-    return " ".join(fmt(v, 4) for v in np.asarray(joints_deg, dtype=np.float64).reshape(6))
+    return " ".join(fmt(v, 4, trim) for v in np.asarray(joints_deg, dtype=np.float64).reshape(6))
 
 
-def fmt_position(p_mm: ArrayLike) -> str:
+def fmt_position(p_mm: ArrayLike, trim: bool = False) -> str:
     """Three coordinates (mm) with 3 decimals."""
-    return " ".join(fmt(v, 3) for v in np.asarray(p_mm, dtype=np.float64).reshape(3))
+    return " ".join(fmt(v, 3, trim) for v in np.asarray(p_mm, dtype=np.float64).reshape(3))
 
 
-def fmt_quat(q_wxyz: ArrayLike) -> str:
+def fmt_quat(q_wxyz: ArrayLike, trim: bool = False) -> str:
     """Quaternion w x y z with 6 decimals."""
-    return " ".join(fmt(v, 6) for v in np.asarray(q_wxyz, dtype=np.float64).reshape(4))
+    return " ".join(fmt(v, 6, trim) for v in np.asarray(q_wxyz, dtype=np.float64).reshape(4))
 
 
 def parse_number(text: str, name: str) -> float:
@@ -222,7 +229,7 @@ def target_bodies(slot: int, p_mm: ArrayLike, q_wxyz: ArrayLike, previous_quat: 
     point's, as written; slots 2 and up), else ``XT`` when its line fits in :data:`MAX_LINE`
     characters, else ``XP`` + ``XO``.
     """
-    pos, quat = fmt_position(p_mm), fmt_quat(q_wxyz)
+    pos, quat = fmt_position(p_mm, trim=True), fmt_quat(q_wxyz, trim=True)
     if previous_quat and quat == previous_quat and slot >= 2:
         return [f"XP {slot} {pos}", f"XR {slot}"]
     one = f"XT {slot} {pos} {quat}"
@@ -233,7 +240,7 @@ def target_bodies(slot: int, p_mm: ArrayLike, q_wxyz: ArrayLike, previous_quat: 
 
 def circle_body(slot: int, p_mm: ArrayLike) -> str:
     """``XC slot x y z``: path point ``slot`` is reached by a MoveC through this point (mm)."""
-    return f"XC {slot} {fmt_position(p_mm)}"
+    return f"XC {slot} {fmt_position(p_mm, trim=True)}"
 
 
 # ---- replies and events ------------------------------------------------------------------------

@@ -27,7 +27,7 @@ from controller.errors import (
     SafetyError,
     SeamguideError,
 )
-from controller.geometry.poses import Pose, pos_quat_from_pose, pose_from_pos_quat
+from controller.geometry.poses import Pose, pos_quat_from_pose, pose_error, pose_from_pos_quat
 from drivers.abb import abb_codec as codec
 from drivers.abb.abb_link import AbbLink
 from drivers.robot_commands import (
@@ -41,6 +41,8 @@ from drivers.robot_commands import (
 from drivers.robot_interface import DEFAULT_TIMEOUT_S, Event, MotionHandle, MotionTimeout, Robot
 
 _PUMP_SLICE_S = 0.05  # longest a waiter holds the link lock (abort() gets in between)
+# how close the last linear move's target must be to a path's start for a circle from it
+_AT_START_MM, _AT_START_DEG = 0.01, 0.01
 _ERROR_CLASSES: dict[int, type[SeamguideError]] = {
     11: ProtocolError, 12: ProtocolError, 13: LinkError, 14: ProtocolError, 15: RobotFault,
     20: RobotFault, 21: ProtocolError,
@@ -77,6 +79,9 @@ class AbbRobot(Robot):
         self._mid = 0
         self._tool = ToolData(np.eye(4))
         self._path_len = 0
+        self._path_start: np.ndarray | None = None  # where a circle to path point 1 starts
+        self._last_linear: tuple[MotionHandle, np.ndarray] | None = None
+        self._speed_zone = ""  # the last SV the controller accepted ("": unknown, send it)
         self._capacity = 0
         self._info: dict[str, Any] = {}
         self._last_status_t = 0.0
@@ -106,12 +111,15 @@ class AbbRobot(Robot):
         refuses until it is uploaded again. Nothing that moves is sent.
         """
         self._path_len = 0
+        self._path_start = None
+        self._last_linear = None
+        self._speed_zone = ""  # the program restarted with its own speed and zone
         self.link._last_event_seq = None  # the controller numbers its events from 1 again
         self._hello()
         if not np.array_equal(self._tool.T_flange_tcp, np.eye(4)):
             p, q = pos_quat_from_pose(self._tool.T_flange_tcp)
-            self._call(f"TP {codec.fmt_position(p)}")
-            self._call(f"TO {codec.fmt_quat(q)}")
+            self._call(f"TP {codec.fmt_position(p, trim=True)}")
+            self._call(f"TO {codec.fmt_quat(q, trim=True)}")
 
     def _hello(self) -> None:
         data = self._call(f"HI {self.session}")
@@ -138,6 +146,7 @@ class AbbRobot(Robot):
         """Open the port, start the session (``HI``) and identify the controller (``ID``)."""
         if self.prepare is not None and not self.link.is_open:
             self.link.url = self.prepare()
+        self._speed_zone = ""  # whatever the controller holds, we have not set it yet
         self.link.open()
         self._hello()
         data = self._call("ID")
@@ -181,18 +190,30 @@ class AbbRobot(Robot):
         """Send the tool frame (``TP``, ``TO``); later targets are TCP poses with this tool."""
         tool = ToolData(np.asarray(T_flange_tcp, dtype=np.float64))
         p, q = pos_quat_from_pose(tool.T_flange_tcp)
-        self._call(f"TP {codec.fmt_position(p)}")
-        self._call(f"TO {codec.fmt_quat(q)}")
+        self._call(f"TP {codec.fmt_position(p, trim=True)}")
+        self._call(f"TO {codec.fmt_quat(q, trim=True)}")
         self._tool = tool
+
+    def _set_speed(self, speed_mm_s: float, zone_mm: float) -> None:
+        """``SV`` unless the controller already holds this speed and zone (sent by us).
+
+        The controller keeps them until the next ``SV`` or a program restart (which the client
+        detects and forgets them on); a request that failed leaves them unknown, so sent again.
+        """
+        body = f"SV {codec.fmt(speed_mm_s, 1, trim=True)} {codec.fmt(zone_mm, 1, trim=True)}"
+        if body != self._speed_zone:
+            self._speed_zone = ""
+            self._call(body)
+            self._speed_zone = body
 
     def move_joints(self, joints_deg: ArrayLike, speed_mm_s: float = 100.0) -> MotionHandle:
         """Check, then ``SV`` + ``MJ``; the handle completes on ``IP``."""
         cmd = MoveJoints(np.asarray(joints_deg, dtype=np.float64), speed_mm_s)
         cmd.check(self.limits, self._tool)
-        self._call(f"SV {codec.fmt(cmd.speed_mm_s, 1)} 0.0")
+        self._set_speed(cmd.speed_mm_s, 0.0)
         mid = self._next_mid()
         h = self._handle(mid, "move_joints")
-        self._call(f"MJ {mid} {codec.fmt_joints(cmd.joints_deg)}")
+        self._call(f"MJ {mid} {codec.fmt_joints(cmd.joints_deg, trim=True)}")
         return h
 
     def move_linear(self, T_base_tcp: ArrayLike, speed_mm_s: float = 100.0) -> MotionHandle:
@@ -200,47 +221,80 @@ class AbbRobot(Robot):
         cmd = MoveLinear(np.asarray(T_base_tcp, dtype=np.float64), speed_mm_s)
         cmd.check(self.limits, self._tool)
         p, q = pos_quat_from_pose(cmd.T_base_tcp)
-        self._call(f"SV {codec.fmt(cmd.speed_mm_s, 1)} 0.0")
+        self._set_speed(cmd.speed_mm_s, 0.0)
         for body in codec.target_bodies(0, p, q):
             self._call(body)
         mid = self._next_mid()
         h = self._handle(mid, "move_linear")
         self._call(f"ML {mid}")
+        self._last_linear = (h, cmd.T_base_tcp.copy())
         return h
 
     def upload_path(self, targets: Sequence[ArrayLike],
-                    circle_points_mm: Sequence[ArrayLike | None] | None = None) -> None:
+                    circle_points_mm: Sequence[ArrayLike | None] | None = None,
+                    start: ArrayLike | None = None) -> None:
         """Check every point (box, IK, length <= capacity, arcs), then ``PN n`` and each point.
 
         A point goes as ``XT`` (or ``XP`` + ``XO``, or ``XP`` + ``XR`` when its orientation as
         written repeats the previous point's), then ``XC`` when it has a circle point
-        (``circle_points_mm``: one per point, None for a MoveL). A path longer than the
-        controller buffer raises :class:`SafetyError` before any byte.
+        (``circle_points_mm``: one per point, None for a MoveL). ``start`` (``T_base_tcp``, mm):
+        where the pass will start, needed only when the first point has a circle point (the
+        circle from ``start`` is checked; :meth:`run_weld` then requires the robot to be there,
+        reached by a completed :meth:`move_linear`). A path longer than the controller buffer
+        raises :class:`SafetyError` before any byte.
         """
         circles = tuple(circle_points_mm) if circle_points_mm is not None else ()
         path = PathTargets(tuple(np.asarray(T, dtype=np.float64) for T in targets),
                            tuple(None if c is None else np.asarray(c, dtype=np.float64)
-                                 for c in circles))
+                                 for c in circles),
+                           None if start is None else np.asarray(start, dtype=np.float64))
         path.check(self.limits, self._tool, self._capacity)
         self._path_len = 0
+        self._path_start = None
         self._call(f"PN {len(path.targets)}")
         previous = ""
         for i, (T, via) in enumerate(zip(path.targets, path.circles, strict=True), start=1):
             p, q = pos_quat_from_pose(T)
             for body in codec.target_bodies(i, p, q, previous):
                 self._call(body)
-            previous = codec.fmt_quat(q)
+            previous = codec.fmt_quat(q, trim=True)
             if via is not None:
                 self._call(codec.circle_body(i, via))
         self._path_len = len(path.targets)
+        if path.circles[0] is not None:
+            self._path_start = path.start
+
+    def _check_at_path_start(self) -> None:
+        """The robot is where the circle to path point 1 was checked from, or SafetyError.
+
+        Known only from a :meth:`move_linear` there that completed, with no motion since.
+        """
+        start = self._path_start
+        if start is None:
+            return
+        last = self._last_linear
+        here = None
+        if last is not None and last[0].state == "done" and last[0].mid == self._mid:
+            here = last[1]
+        off_mm, off_deg = pose_error(here, start) if here is not None else (np.inf, np.inf)
+        if off_mm > _AT_START_MM or off_deg > _AT_START_DEG:
+            raise SafetyError("run_weld: the path starts with a circle from "
+                              f"{np.round(start[:3, 3], 3).tolist()} mm, but the robot is not "
+                              "known to be there; move_linear to the path's start first (and "
+                              "wait for it), then run_weld", start_mm=start[:3, 3].tolist())
 
     def run_weld(self, speed_mm_s: float, arc_output: bool = True) -> MotionHandle:
-        """``SV`` + ``RW``; ``handle.progress`` follows ``PG`` events, done on ``DN``."""
+        """``SV`` + ``RW``; ``handle.progress`` follows ``PG`` events, done on ``DN``.
+
+        Raises :class:`SafetyError` before any byte when no path was uploaded, or when its first
+        point is a circle and the robot is not where that circle was checked from.
+        """
         cmd = WeldRun(speed_mm_s, bool(arc_output))
         cmd.check(self.limits)
         if self._path_len == 0:
             raise SafetyError("run_weld: no path uploaded in this session; call upload_path")
-        self._call(f"SV {codec.fmt(cmd.speed_mm_s, 1)} {codec.fmt(self.weld_zone_mm, 1)}")
+        self._check_at_path_start()
+        self._set_speed(cmd.speed_mm_s, self.weld_zone_mm)
         mid = self._next_mid()
         h = self._handle(mid, "weld", n_points=self._path_len)
         self._call(f"RW {mid} {1 if cmd.arc_output else 0}")

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from controller.errors import InputError, ReachabilityError
-from controller.geometry.kinematics import flange_pose, solve_ik
+from controller.geometry.kinematics import flange_pose, solve_ik, solve_ik_near
 from controller.geometry.poses import invert, pos_quat_from_pose, pose_error, pose_from_pos_quat
 from controller.geometry.segment_motion import segment_length_mm
 from drivers.rapid_vm.builtins_core import CORE_FUNCTIONS
@@ -184,7 +184,9 @@ class Machine:
         T1 = pose_of(target) @ invert(T_tool)
         j0 = self.arm.last_target()
         try:
-            j1 = solve_ik(self.arm.model, T1, near_deg=j0)
+            # the configuration the arm is in, continued (ConfL \Off): the same refusals as the
+            # full solution set, without computing it for every move (10 ms each)
+            j1 = solve_ik_near(self.arm.model, T1, j0)
         except ReachabilityError as err:
             raise RapidError(ERR_MOTION, f"{where}: {name} target outside reach") from err
         T0 = flange_pose(self.arm.model, j0, check_limits=False)
@@ -197,7 +199,7 @@ class Machine:
         if self.weld_move:
             self.weld_move += 1
         fail = self.fail_at_point is not None and self.weld_move - 1 == self.fail_at_point
-        token = self.arm.move("move_linear", j1, T1, dur, fail, via)
+        token = self.arm.move("move_linear", j1, T1, dur, fail, via, T_tool)
         if o.get("conc"):
             return
         self.arm.wait(token, "done" if zone.f["finep"] else "started", self.alive)

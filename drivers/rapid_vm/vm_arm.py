@@ -32,7 +32,7 @@ class VmArm(MockArm):
 
     def __init__(self, schedule: Schedule, *, time_scale: float = 0.0) -> None:
         super().__init__(schedule, time_scale=time_scale)
-        self._queue: list[tuple[int, str, Segment, bool]] = []
+        self._queue: list[tuple[int, str, Segment, np.ndarray | None]] = []
         self._done = 0
         self._started = 0
         self._issued = 0
@@ -40,6 +40,9 @@ class VmArm(MockArm):
         self._cond = threading.Condition(schedule.lock)
         self.notify = self._on_arm_event
         self.fail_token = 0  # the segment that ends in a fault (0: none)
+        #: Every segment the arm started, in order: the mock's ``executed`` entry of a one-segment
+        #: motion (``tcp_segments``, for :meth:`trace`) and ``arc``, the arc output as it began.
+        self.segments_run: list[dict[str, Any]] = []
 
     def _on_arm_event(self, kind: str, token: int, *rest: Any) -> None:
         if kind == "IP":
@@ -50,7 +53,7 @@ class VmArm(MockArm):
     def _start_next(self) -> None:
         if self._motion is not None or not self._queue or self._faulted:
             return
-        token, kind, seg, _ = self._queue.pop(0)
+        token, kind, seg, tool = self._queue.pop(0)
         self._started = token
         if token == self.fail_token:  # the robot stops on its way to this segment's end
 
@@ -60,25 +63,31 @@ class VmArm(MockArm):
                 self._cond.notify_all()
             self.schedule.after(0.0, fault)
             return
+        if tool is not None:
+            self._tool = tool  # the move instruction's tool: the TCP path it traces
         self.start(token, kind, [seg], None)()
         # the arm logs each segment as a motion; the controller logs the program's motions
-        self.executed.pop()
+        entry = self.executed.pop()
+        entry["arc"] = self._arc
+        self.segments_run.append(entry)
         if self.action_log and self.action_log[-1].startswith("start "):
             self.action_log.pop()
 
     def move(self, kind: str, j1: np.ndarray, T1: np.ndarray, dur: float,
-             fail: bool = False, via_mm: np.ndarray | None = None) -> int:
+             fail: bool = False, via_mm: np.ndarray | None = None,
+             tool: np.ndarray | None = None) -> int:
         """Queue a segment (``move_joints`` / ``move_linear``); its token.
 
         ``fail``: the robot stops with a fault on its way to this segment's end. ``via_mm``: for
-        a MoveC, the circle point the TCP passes (mm).
+        a MoveC, the circle point the TCP passes (mm). ``tool``: the instruction's
+        ``T_flange_tcp`` (mm), the arm's tool from this segment on (None: unchanged).
         """
         with self._cond:
             self._issued += 1
             token = self._issued
             if fail:
                 self.fail_token = token
-            self._queue.append((token, kind, (j1, T1, dur, via_mm), False))
+            self._queue.append((token, kind, (j1, T1, dur, via_mm), tool))
             self._start_next()
             return token
 
