@@ -2,23 +2,30 @@
 
 Usage::
 
-    .venv/bin/python bench/bench_calibration_noise.py [--steep 12] [--noisy-seeds 3]
-                                                     [--output bench/calibration_noise.json]
+    .venv/bin/python bench/bench_calibration_noise.py [--steep 24] [--noisy-seeds 3]
+        [--eight-view 4] [--synthetic 6] [--output bench/calibration_noise.json]
 
 1. ``--steep N``: N rendered views of a 28x17 chessboard (20 mm squares) at 1920x1200, tilted
    40-60 deg from the board's normal, whole in the image, with varied light (illumination 0.35-1.1,
    dark level 0-0.3), defocus (0-1.2 px) and noise (1-3 grey levels). On each image:
    ``cv2.findChessboardCorners`` and ``cv2.findChessboardCornersSB`` with their default flags,
    and ours (calibration.targets.detect_board_explained); the corner RMS against the truth.
-2. ``--noisy-seeds K``: K simulated sessions (2272x1704, 9x6 board, 20 good views + 2 blurred
+2. ``--noisy-seeds K``: K rendered sessions (2272x1704, 9x6 board, 20 good views + 2 blurred
    + 1 out of frame, as bench_calibration.py) with robot pose noise 1 mm / 0.1 deg per axis.
-   Errors on the truth of: the plain OpenCV pipeline with Park (calibrateCamera, solvePnP,
-   calibrateHandEye on every view found), OpenCV's Park on our corners and intrinsics, and ours
-   (noise estimated). With the one-sigma ours reports (covariance and jackknife).
+   Errors on the truth of: the plain OpenCV pipeline with each of its five methods
+   (calibrateCamera, solvePnP, calibrateHandEye on every view found), the five on our corners
+   and intrinsics, and ours (noise estimated; limits off, the figures the default limits judge
+   recorded). With the one-sigma ours reports (covariance and jackknife).
 3. ``--synthetic K``: K corner-level sessions per noise level (tests/test_handeye.py's
    generator: 20 views at 640x480, true corners + Gaussian noise, no rendering) at robot noise
    0.05 mm / 0.01 deg, 0.2 / 0.05 and 1 / 0.1: ours against Park on the truth, and the RMS error
    per camera axis against the mean one-sigma of the covariance and of the jackknife.
+4. ``--eight-view K``: rendered 8-view sessions at 640x480 (the size of issue 18's two small
+   real sets, whose images are not on this machine), seeds 1..K at six robot pose noises from
+   0.05 mm / 0.01 deg to 3 mm / 0.3 deg, through the folder solver (``solve_views``) with its
+   default limits: accepted or refused, the reprojection RMS and consistency the limits judge,
+   and how many of the three worst views named are among the three whose recorded poses are
+   truly the worst.
 """
 
 from __future__ import annotations
@@ -39,11 +46,22 @@ sys.path.insert(0, str(ROOT / "tests"))
 from bench_calibration import plain_opencv  # noqa: E402
 
 from calibration.closed_form import _pnp  # noqa: E402
-from calibration.handeye import Observation, opencv_calibrate_hand_eye, solve_hand_eye  # noqa: E402
+from calibration.handeye import (  # noqa: E402
+    CLOSED_FORM_METHODS,
+    MAX_CONSISTENCY_DEG,
+    MAX_CONSISTENCY_MM,
+    MAX_RMS_FRACTION,
+    Observation,
+    opencv_calibrate_hand_eye,
+    solve_hand_eye,
+)
 from calibration.intrinsics import solve_intrinsics  # noqa: E402
+from calibration.solve_views import solve_views  # noqa: E402
 from calibration.targets import detect_board_explained, parse_board_spec  # noqa: E402
+from calibration.teach_progress import ViewRecord  # noqa: E402
+from controller.errors import CalibrationError  # noqa: E402
 from controller.geometry.camera_model import default_camera  # noqa: E402
-from controller.geometry.poses import invert, pose_error  # noqa: E402
+from controller.geometry.poses import invert, pose_error, transform_points  # noqa: E402
 from drivers.sim.sim_board import simulate_session, true_corners  # noqa: E402
 
 
@@ -53,7 +71,7 @@ def run_steep(n: int, seed: int = 7) -> dict:
 
     rows = []
     t0 = time.perf_counter()
-    views = steep_28x17_views(n, seed, width=1920)
+    views = steep_28x17_views(n, seed, width=1920, height=1200)
     t_render = (time.perf_counter() - t0) / n
     for k, (cam, b, img, T) in enumerate(views):
         t = time.perf_counter()
@@ -74,7 +92,9 @@ def run_steep(n: int, seed: int = 7) -> dict:
                      "ours": d is not None, "why": why, "corner_rms_px": rms,
                      "s": [round(t_classic, 2), round(t_sb, 2), round(t_ours, 2)]})
         print(json.dumps(rows[-1]), file=sys.stderr)
-    return {"views": rows, "render_s_per_image": round(t_render, 2), "image": [1920, 1200]}
+    cam = views[0][0]
+    return {"views": rows, "render_s_per_image": round(t_render, 2),
+            "image": [cam.width, cam.height]}
 
 
 def run_noisy(seeds: list[int], n_views: int = 20, width: int = 2272) -> list[dict]:
@@ -94,8 +114,9 @@ def run_noisy(seeds: list[int], n_views: int = 20, width: int = 2272) -> list[di
         intr = solve_intrinsics([d.image_points for d in ds], [d.object_points for d in ds],
                                 (cam.width, cam.height), names=names)
         obs = [Observation(d.image_points, d.object_points) for d in ds]
-        park_ours_corners = opencv_calibrate_hand_eye(
-            A, [_pnp(intr.camera, o)[0] for o in obs], "park")
+        T_cb = [_pnp(intr.camera, o)[0] for o in obs]
+        on_ours = {m: opencv_calibrate_hand_eye(A, T_cb, m) for m in CLOSED_FORM_METHODS}
+        park_ours_corners = on_ours["park"]
         t0 = time.perf_counter()
         he = solve_hand_eye(A, obs, intr.camera, names=names, refine_intrinsics=True,
                             max_rms_px=1e9, max_consistency_mm=1e9, max_consistency_deg=1e9)
@@ -104,6 +125,9 @@ def run_noisy(seeds: list[int], n_views: int = 20, width: int = 2272) -> list[di
         kinds = {v.name: v.kind for v, _ in found}
         rows.append({
             "seed": seed, "views": len(found),
+            "opencv_plain": {m: list(pose_error(X, s.T_flange_cam)) for m, X in closed.items()},
+            "opencv_our_corners": {m: list(pose_error(X, s.T_flange_cam))
+                                   for m, X in on_ours.items()},
             "opencv_park_plain": list(pose_error(closed["park"], s.T_flange_cam)),
             "opencv_park_our_corners": list(pose_error(park_ours_corners, s.T_flange_cam)),
             "ours": list(pose_error(he.X, s.T_flange_cam)),
@@ -112,6 +136,13 @@ def run_noisy(seeds: list[int], n_views: int = 20, width: int = 2272) -> list[di
             "ours_std_jackknife_mm": rep["hand_eye_std_jackknife_mm_cam_xyz"],
             "noise": rep["noise"], "rejected": [(r["view"], kinds[r["view"]])
                                                 for r in he.rejected_views],
+            "bad_views_in": sorted(k for k in kinds.values() if k != "good"),
+            "residual_px": he.residual_px,
+            "consistency_mm_deg": [he.consistency_mm, he.consistency_deg],
+            "default_limits": {"max_rms_px": MAX_RMS_FRACTION * float(np.hypot(cam.width,
+                                                                              cam.height)),
+                               "max_consistency_mm_deg": [MAX_CONSISTENCY_MM,
+                                                          MAX_CONSISTENCY_DEG]},
             "leave_one_out_px_mm": [rep["leave_one_out"]["rms_px"],
                                     rep["leave_one_out"]["rms_mm_at_board"]],
             "solve_s": round(time.perf_counter() - t0, 1)})
@@ -148,12 +179,135 @@ def run_synthetic(k: int) -> list[dict]:
     return out
 
 
+def noisy_tables(rows: list[dict]) -> str:
+    """The README tables of ``--noisy-seeds``: per session, and per method over sessions."""
+    out = ["\n## Robot pose noise 1 mm / 0.1 deg (2272x1704, 20 good + 2 blurred views)\n",
+           "| seed | views | OpenCV Park (plain) mm / deg | OpenCV Park, our corners | ours | "
+           "ours: one sigma mm (model / jackknife, camera x y z) | robot noise estimated | "
+           "reprojection px / consistency mm, deg (default limits) |",
+           "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        f = [f"{r[k][0]:.3f} / {r[k][1]:.4f}" for k in
+             ("opencv_park_plain", "opencv_park_our_corners", "ours")]
+        n, lim = r["noise"], r["default_limits"]
+        c = r["consistency_mm_deg"]
+        out.append(f"| {r['seed']} | {r['views']} | {f[0]} | {f[1]} | {f[2]} | "
+                   f"{r['ours_std_model_mm']} / {r['ours_std_jackknife_mm']} | "
+                   f"{n['robot_sigma_mm']:.3f} mm / {n['robot_sigma_deg']:.4f} deg | "
+                   f"{r['residual_px']:.2f} ({lim['max_rms_px']:.2f}) / {c[0]:.2f}, "
+                   f"{c[1]:.3f} ({lim['max_consistency_mm_deg'][0]}, "
+                   f"{lim['max_consistency_mm_deg'][1]}) |")
+    out += ["", "| method | mean mm | max mm | mean deg | max deg |", "|---|---|---|---|---|"]
+    methods = [(f"OpenCV {m} (plain)", lambda r, m=m: r["opencv_plain"][m])
+               for m in CLOSED_FORM_METHODS]
+    methods += [(f"OpenCV {m}, our corners", lambda r, m=m: r["opencv_our_corners"][m])
+                for m in CLOSED_FORM_METHODS]
+    methods.append(("**ours**", lambda r: r["ours"]))
+    for label, get in methods:
+        e = np.array([get(r) for r in rows])
+        out.append(f"| {label} | {e[:, 0].mean():.3f} | {e[:, 0].max():.3f} | "
+                   f"{e[:, 1].mean():.4f} | {e[:, 1].max():.4f} |")
+    return "\n".join(out)
+
+
+def _view_error_px(cam, board, X, Y, A_true, A_rec) -> float:
+    """RMS px by which a recorded flange pose moves the board's corners in the image (truth
+    otherwise): how inconsistent the view is, independent of any solver."""
+    obj = board.object_points()
+    uv = [cam.project_cam(transform_points(invert(A @ X) @ Y, obj)) for A in (A_true, A_rec)]
+    return float(np.sqrt(np.mean(np.sum((uv[0] - uv[1]) ** 2, axis=1))))
+
+
+EIGHT_LEVELS = ((0.05, 0.01), (0.3, 0.03), (0.6, 0.06), (1.0, 0.1), (2.0, 0.2), (3.0, 0.3))
+
+
+def run_eight(seeds: list[int], levels=EIGHT_LEVELS) -> list[dict]:
+    """8-view sessions at 640x480 (like issue 18's two small real sets) through the folder
+    solver with its default limits, at robot pose noises from good to millimetres off: accepted
+    or refused, the figures the limits judge, and whether the worst views named are the views
+    whose recorded poses are truly the worst (ranked by :func:`_view_error_px`)."""
+    cam = default_camera(640, 480)
+    board = parse_board_spec("chessboard:9x6:20")
+    rows = []
+    for s_mm, s_deg in levels:
+        for seed in seeds:
+            s = simulate_session(cam, board, n_views=8, seed=seed, pose_noise_mm=s_mm,
+                                 pose_noise_deg=s_deg)
+            recs = []
+            for v in s.views:
+                d, why = detect_board_explained(v.image, board)
+                recs.append(ViewRecord(v.name, v.T_base_flange, d,
+                                       skip_reason=None if d is not None else why))
+            true_px = {v.name: _view_error_px(cam, board, s.T_flange_cam, s.T_base_board,
+                                              v.T_base_flange_true, v.T_base_flange)
+                       for v, r in zip(s.views, recs, strict=True) if r.detection is not None}
+            truly_worst = sorted(true_px, key=lambda k: -true_px[k])[:3]
+            row = {"robot_noise_mm_deg": [s_mm, s_deg], "seed": seed,
+                   "found": sum(r.detection is not None for r in recs),
+                   "no_board": {r.name: r.skip_reason for r in recs if r.detection is None},
+                   "true_view_error_px": true_px, "truly_worst": truly_worst}
+            found = [r for r in recs if r.detection is not None]
+            closed, _ = plain_opencv([r.T_base_flange for r in found],
+                                     [r.detection for r in found], (cam.width, cam.height))
+            row["opencv_park_plain"] = list(pose_error(closed["park"], s.T_flange_cam))
+            try:
+                calib, rep = solve_views(recs, board, (cam.width, cam.height))
+                he = rep["hand_eye"]
+                row.update(status="accepted", residual_px=he["residual_px"],
+                           consistency_mm_deg=[he["consistency_mm"], he["consistency_deg"]],
+                           rejected=[r["view"] for r in he["rejected_views"]],
+                           loo_rms_px=he["leave_one_out"]["rms_px"],
+                           named=he["leave_one_out"]["worst_views"],
+                           ours=list(pose_error(calib.T_flange_cam, s.T_flange_cam)))
+            except CalibrationError as e:
+                dt = e.details
+                named = dt.get("worst_views") or [r["view"] for r in dt.get("rejected_views", [])]
+                row.update(status="refused", message=str(e), named=named,
+                           residual_px=dt.get("residual_px"),
+                           consistency_mm_deg=[dt.get("consistency_mm"),
+                                               dt.get("consistency_deg")])
+            row["named_among_truly_worst"] = sum(v in truly_worst for v in row["named"][:3])
+            rows.append(row)
+            print(json.dumps({k: v for k, v in row.items() if k != "true_view_error_px"},
+                             default=float), file=sys.stderr)
+    return rows
+
+
+def eight_table(rows: list[dict]) -> str:
+    """The README table of ``--eight-view``: per robot noise, over the seeds."""
+    out = ["\n## 8 views at 640x480 through the folder solver, default limits\n",
+           "| robot noise mm / deg | accepted / refused | reprojection px (limit 2.00) | "
+           "consistency mm / deg (limits 3 / 0.5) | named worst views among the 3 truly worst "
+           "| ours mm / deg (accepted) | OpenCV Park mm / deg (same sessions) |",
+           "|---|---|---|---|---|---|---|"]
+    for lv in EIGHT_LEVELS:
+        rs = [r for r in rows if tuple(r["robot_noise_mm_deg"]) == lv]
+        if not rs:
+            continue
+        acc = [r for r in rs if r["status"] == "accepted"]
+        px = [r["residual_px"] for r in rs if r["residual_px"] is not None]
+        cm = [r["consistency_mm_deg"] for r in rs if r["consistency_mm_deg"][0] is not None]
+        named = [r["named_among_truly_worst"] for r in rs if r["status"] == "refused"]
+        ours = np.array([r["ours"] for r in acc]) if acc else None
+        park = np.array([r["opencv_park_plain"] for r in acc]) if acc else None
+        out.append(
+            f"| {lv[0]} / {lv[1]} | {len(acc)} / {len(rs) - len(acc)} | "
+            f"{min(px):.2f}-{max(px):.2f} | "
+            + (f"{min(c[0] for c in cm):.2f}-{max(c[0] for c in cm):.2f} / "
+               f"{min(c[1] for c in cm):.3f}-{max(c[1] for c in cm):.3f}" if cm else "-")
+            + f" | {'/'.join(str(n) for n in named) if named else '-'} | "
+            + (f"{ours[:, 0].mean():.3f} / {ours[:, 1].mean():.4f}" if acc else "-") + " | "
+            + (f"{park[:, 0].mean():.3f} / {park[:, 1].mean():.4f}" if acc else "-") + " |")
+    return "\n".join(out)
+
+
 def main() -> None:
     """Run the sections asked for; print the README tables; write the results JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steep", type=int, default=0, metavar="N")
     ap.add_argument("--noisy-seeds", type=int, default=0, metavar="K")
     ap.add_argument("--synthetic", type=int, default=0, metavar="K")
+    ap.add_argument("--eight-view", type=int, default=0, metavar="K")
     ap.add_argument("--output", default=str(ROOT / "bench" / "calibration_noise.json"))
     args = ap.parse_args()
     out = Path(args.output)
@@ -174,17 +328,11 @@ def main() -> None:
     if args.noisy_seeds:
         rows = run_noisy(list(range(1, args.noisy_seeds + 1)))
         result["noisy_robot"] = rows
-        print("\n## Robot pose noise 1 mm / 0.1 deg (2272x1704, 20 good + 2 blurred views)\n")
-        print("| seed | OpenCV Park (plain) mm / deg | OpenCV Park, our corners | ours | ours: "
-              "one sigma mm (model / jackknife, camera x y z) | robot noise estimated |")
-        print("|---|---|---|---|---|---|")
-        for r in rows:
-            f = [f"{r[k][0]:.3f} / {r[k][1]:.4f}" for k in
-                 ("opencv_park_plain", "opencv_park_our_corners", "ours")]
-            n = r["noise"]
-            print(f"| {r['seed']} | {f[0]} | {f[1]} | {f[2]} | {r['ours_std_model_mm']} / "
-                  f"{r['ours_std_jackknife_mm']} | {n['robot_sigma_mm']:.3f} mm / "
-                  f"{n['robot_sigma_deg']:.4f} deg |")
+        print(noisy_tables(rows))
+    if args.eight_view:
+        rows = run_eight(list(range(1, args.eight_view + 1)))
+        result["eight_view"] = rows
+        print(eight_table(rows))
     if args.synthetic:
         rows = run_synthetic(args.synthetic)
         result["synthetic"] = rows

@@ -147,13 +147,16 @@ def test_cascade_falls_back_when_the_first_detector_misses(monkeypatch):
     assert np.sqrt(np.mean(np.sum((d.image_points - uv) ** 2, axis=1))) < 0.15
 
 
-def steep_28x17_views(n, seed, width=960):
+def steep_28x17_views(n, seed, width=960, height=None):
     """``n`` rendered views of a 28x17 board (20 mm squares) tilted 40-60 deg from its normal,
-    whole in the image, with varied light, blur and noise; yields (image, T_cam_board)."""
+    whole in the image, with varied light, blur and noise; a list of (camera, board, image,
+    T_cam_board). The camera is the 2272x1704 one scaled to ``width`` (4:3), or with ``height``
+    :func:`default_camera` of that size (the same 44 deg horizontal field)."""
     from controller.geometry.poses import invert
     from drivers.sim.sim_board import default_board_pose, look_at
 
-    cam = default_camera(2272, 1704).scaled(width / 2272)
+    cam = (default_camera(2272, 1704).scaled(width / 2272) if height is None
+           else default_camera(width, height))
     b = parse_board_spec("chessboard:28x17:20")
     Y = default_board_pose(b)
     centre = Y[:3, :3] @ b.object_points().mean(axis=0) + Y[:3, 3]
@@ -177,7 +180,7 @@ def steep_28x17_views(n, seed, width=960):
 
 
 def test_steep_28x17_board_found_wherever_opencv_finds_it():
-    """bench/bench_calibration.py --steep runs this on 1920x1200 images and more views; here
+    """bench/bench_calibration_noise.py --steep runs this on 1920x1200 images and more views; here
     three views at 960 px (the first view of seed 1, which no detector finds, is skipped: a
     failing search costs half a minute here and shows nothing about this property)."""
     opencv_found = 0
