@@ -17,7 +17,7 @@ from controller.vision.seam_ends import end_offset, measure_tails
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import fit_at, resample, track_on
 
-_MAX_PATCHES = 4  # covered patches (tack welds) crossed per candidate
+_MAX_PATCHES = 10  # covered patches (tack welds) crossed per candidate
 
 
 def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
@@ -42,7 +42,11 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     # Longest run of valid profiles, bridging short interruptions; short islands at its ends are
     # dropped (a lone fit on the sheet border beyond the seam's end is not the seam).
     bridge = int(round(p.bridge_px / p.step_px))
-    run = _longest_bridged_run(valid, bridge, min_island=max(3, int(round(12 / p.step_px))))
+    # A candidate extended across covered patches was seen to go on beyond each: every hole up
+    # to the longest patch looked across is bridged, however short the pieces between.
+    short = int(round(300.0 / p.step_px)) if crossed else None
+    run = _longest_bridged_run(valid, bridge, min_island=max(3, int(round(12 / p.step_px))),
+                               bridge_short=short)
     if run is None or (run[1] - run[0]) * p.step_px < p.min_length_px * 0.5:
         c.why_rejected = (f"candidate of {c.length_px:.0f} px has no long run of gap profiles "
                           f"({int(valid.sum())} of {len(valid)} good)")
@@ -93,7 +97,9 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
             e_pt = seq[-1]
             tang = seq[-1] - seq[max(0, L - 4)]
             tang /= np.linalg.norm(tang) + 1e-12
-        k_end, end_kind, beyond = end_offset(grey, lut, e_pt, tang, w_med)
+        chord = seq[-1] - seq[max(0, L - 1 - int(round(200.0 / p.step_px)))]
+        chord = chord / (np.linalg.norm(chord) + 1e-12)
+        k_end, end_kind, beyond = end_offset(grey, lut, e_pt, tang, w_med, chord)
         end_kinds.append(end_kind)
         beyonds.append(beyond)
         if use_extrap:

@@ -209,3 +209,27 @@ def mean_dist(poly: F64, ref: F64) -> float:
     """Mean distance (px) from points of ``poly`` to the nearest of ``ref`` (subsampled)."""
     d = np.linalg.norm(poly[::4, None, :] - ref[None, ::max(1, len(ref) // 200), :], axis=2)
     return float(d.min(axis=1).mean())
+
+
+def drop_duplicates(cands: list[Candidate]) -> list[Candidate]:
+    """``cands`` (refined) without those lying on a stronger one's centreline.
+
+    Two pieces of one seam (split by a tack weld in the coarse search) are each extended across
+    the patch when refined and then cover the same line: the same seam, not a rival.
+    """
+    kept: list[Candidate] = []
+    order = sorted(cands, key=lambda c: -c.score if not c.why_rejected else 1.0)
+    for c in order:
+        if c.points is not None and not c.why_rejected and any(
+                k.points is not None and not k.why_rejected
+                and _share_near(c.points, k.points, 3.0) >= 0.8 for k in kept):
+            continue
+        kept.append(c)
+    return kept
+
+
+def _share_near(poly: F64, ref: F64, tol: float) -> float:
+    """Share of the points of ``poly`` within ``tol`` px of a point of ``ref`` (subsampled)."""
+    a, b = poly[::4], ref[::max(1, len(ref) // 400)]
+    d = np.min(np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2), axis=1)
+    return float(np.mean(d <= tol + np.linalg.norm(np.diff(b, axis=0), axis=1).max(initial=0) / 2))

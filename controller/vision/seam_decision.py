@@ -134,5 +134,11 @@ def spans_of(pts: F64, mask: NDArray[np.bool_]) -> list[tuple[float, float]]:
     m = np.concatenate([[0], mask.astype(np.int8), [0]])
     st = np.flatnonzero(np.diff(m) == 1).tolist()
     en = np.flatnonzero(np.diff(m) == -1).tolist()
-    return [(float(s[max(a - 1, 0)]), float(s[min(b, len(s) - 1)]))
-            for a, b in zip(st, en, strict=True)]
+    out: list[tuple[float, float]] = []
+    for a, b in zip(st, en, strict=True):
+        lo, hi = float(s[max(a - 1, 0)]), float(s[min(b, len(s) - 1)])
+        if out and lo <= out[-1][1]:
+            out[-1] = (out[-1][0], hi)  # two runs around one seen point: one patch
+        else:
+            out.append((lo, hi))
+    return out

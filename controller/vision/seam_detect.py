@@ -52,7 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from controller.errors import InputError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
-from controller.vision.seam_coarse import coarse_candidates, mean_dist
+from controller.vision.seam_coarse import coarse_candidates, drop_duplicates, mean_dist
 from controller.vision.seam_decision import (
     IMAGE_BORDER,
     JOINT_END,
@@ -164,6 +164,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     cands = cands[: p.max_candidates]
     for c in cands:
         refine(sub, lut, c, p)
+    cands = drop_duplicates(cands)
     details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
     try:
         best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))

@@ -83,12 +83,15 @@ def _moving_line(x: F64, win: int) -> F64:
 
 
 def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
-               w_med: float) -> tuple[float, str, F64 | None]:
+               w_med: float, chord: F64 | None = None) -> tuple[float, str, F64 | None]:
     """Distance (px, along ``tang``) from ``e_pt`` to the seam's end, and what ends it there.
 
     The kind is ``"sheet border"``, ``"image border"``, ``"open"`` (the gap fades out inside a
     sheet: a pen mark or scratch does that, a joint does not) or ``"covered"`` (something on the
-    joint stops the gap, which goes on beyond it: :func:`gap_resumes`).
+    joint stops the gap, which goes on beyond it: :func:`gap_resumes`). The third value is the
+    gap's centres where it is seen again beyond a covered end (px, outward), else None.
+    ``chord``: the seam's direction over a longer stretch (unit), to look beyond along (the
+    local tangent wobbles at a tack weld); default ``tang``.
 
     The end is where the sheets end. Each side of the gap is read on two lines parallel to the
     centreline just outside the gap, and the gap itself on the centreline; where a sheet border
@@ -119,18 +122,47 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     if k_border <= k:
         k, kind = k_border, "image border"
     beyond = None
-    if kind.endswith("sheet border"):
-        beyond = gap_resumes(grey, lut, e_pt + k * tang, tang, w_med, k_border - k)
+    if kind.endswith("sheet border") or kind == "open":
+        ahead = tang if chord is None else chord
+        beyond = gap_resumes(grey, lut, e_pt + k * tang, ahead, w_med,
+                             _border_crossing(e_pt + k * tang, ahead, W, H, 0.0))
         if beyond is not None:
             # What stopped the gap is a patch on the joint (a tack weld, spatter, slag, a marker
-            # ring), not the end of the sheets: the same gap goes on beyond it.
+            # ring), not the end of the sheets nor of a line: the same gap goes on beyond it.
             kind = "covered"
+        elif kind.endswith("sheet border") and not _sheets_end(grey, lut, e_pt + k * tang, tang,
+                                                               w_med):
+            # The step is local to the joint (a bead on it), the sheets go on beside it: not
+            # the joint's end. Near the image border the gap beyond cannot be seen: the view of
+            # the seam stops here; elsewhere the seam is covered and this piece is not a seam.
+            kind = "image border" if k_border - k < _VERIFY_PX else "covered"
     return float(k), kind, beyond
+
+
+def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med: float) -> bool:
+    """Whether a sheet ends near ``end_pt`` away from the joint, not only on it.
+
+    A sheet border runs across the sheets; a tack weld or a spatter ball is a patch on the
+    joint a few tens of px across. Lines parallel to the seam ``_FAR_PX`` (+ half the gap)
+    beside it, from 30 px before the end to 80 px past it, cross a border (a sharp, lasting
+    step, as in :func:`end_offset`) and pass beside a patch. One side is enough (a T-corner, a
+    rounded corner further on). A line that leaves the image before it shows a step is no
+    evidence.
+    """
+    nrm = np.array([-tang[1], tang[0]])
+    ks = np.arange(-30.0, 80.01, 0.5)
+    off = _FAR_PX + w_med / 2
+    return any(_side_crossings(grey, lut, end_pt + np.outer(ks, tang) + o * nrm, ks)
+               for o in (-off, off))
 
 
 _RESUME_REACH_PX = 260.0  # longest covered stretch looked across (a tack weld ~5-12 mm)
 _RESUME_RUN_PX = 40.0  # the gap must be seen again over this length, in one run
-_FAN_DEG = (0.0, -6.0, 6.0, -12.0, 12.0, -18.0, 18.0, -24.0, 24.0)
+_FAR_PX = 48.0  # beside the joint, past the half width of a tack bead
+# Room needed beyond a sheet-border end to tell it from a tack weld: a bead (up to ~80 px in the
+# dry run's and the photographs' views) and a run of the gap beyond it.
+_VERIFY_PX = 80.0 + _RESUME_RUN_PX
+_FAN_DEG = tuple(float(a) for a in range(-24, 25, 4))  # 4 deg: +-8 px at 115 px
 
 
 def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med: float,
@@ -160,8 +192,18 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
     nrm = np.vstack([np.tile([-d[1], d[0]], (len(ks), 1)) for d in dirs])
     fit = fit_at(grey, lut, pts, nrm, p)
     off = np.einsum("kd,kd->k", fit["centre"] - pts, nrm)
-    ok = (fit["valid"] & (np.abs(off) < 6.0) & (fit["width"] < 2.0 * w_med + 2.0)
+    ok = (fit["valid"] & (np.abs(off) < 8.0) & (fit["width"] < 2.0 * w_med + 2.0)
           & (fit["width"] > 0.4 * w_med - 1.0)).reshape(len(dirs), len(ks))
+    # The sheets on each side, read just before the end: beyond a patch the same sheets go on;
+    # beyond a sheet border a valley on the table (a slot, a plate edge) has other sides.
+    kb = np.arange(16.0, 80.0, p.step_px)
+    pb = end_pt - np.outer(kb, tang)
+    fb = fit_at(grey, lut, pb, np.tile([-tang[1], tang[0]], (len(kb), 1)), p)
+    if int(fb["valid"].sum()) < 4:
+        return None
+    sides = np.array([np.median(fb["left"][fb["valid"]]), np.median(fb["right"][fb["valid"]])])
+    ok &= ((np.abs(fit["left"] - sides[0]) <= 0.35 * sides[0])
+           & (np.abs(fit["right"] - sides[1]) <= 0.35 * sides[1])).reshape(ok.shape)
     centres = fit["centre"].reshape(len(dirs), len(ks), 2)
     best: tuple[int, F64] | None = None
     for row, cen in zip(ok, centres, strict=True):
@@ -171,8 +213,14 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
             continue
         j = int(np.argmax(en - st))
         n = int(en[j] - st[j])
-        if n >= need and (best is None or n > best[0]):
-            best = (n, cen[st[j]:en[j]])
+        # A gap seen again up to the image border needs less length: there is no more to see.
+        to_edge = (reach < _RESUME_REACH_PX and en[-1] == len(ks)
+                   and (en[-1] - st[-1]) * p.step_px >= 16)
+        if to_edge and n < need:
+            j, n = len(st) - 1, need
+        run = cen[st[j]:en[j]]
+        if n >= need and (best is None or n > best[0]) and _continues(run, end_pt, tang):
+            best = (n, run)
     return None if best is None else np.asarray(best[1])
 
 
@@ -213,6 +261,23 @@ def _border_line(offs: tuple[float, ...],
     # sides. That is how a pen or soapstone line or a scratch ends inside a sheet; a joint ends
     # where a sheet does. Not an end (the caller calls it open).
     return None, False
+
+
+def _continues(run: F64, end_pt: F64, tang: F64) -> bool:
+    """Whether ``run`` (px, outward) continues the seam ending at ``end_pt`` along ``tang``.
+
+    Close to the seam's line (lateral offset at most 6 px + 15 % of the distance: a curve of
+    radius 500 px stays inside over 250 px) and in about its direction (20 deg): a line
+    parallel to the seam beside it (a pen line beside the joint, the joint beside a pen line)
+    is another line, not the same gap beyond a patch.
+    """
+    nrm = np.array([-tang[1], tang[0]])
+    rel = run - end_pt
+    along, lat = rel @ tang, rel @ nrm
+    if np.any(np.abs(lat) > 6.0 + 0.15 * np.maximum(along, 0.0)):
+        return False
+    d = run[-1] - run[0]
+    return bool(d @ tang > np.cos(np.radians(20.0)) * np.linalg.norm(d))
 
 
 def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> list[float]:

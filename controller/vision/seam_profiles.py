@@ -158,7 +158,7 @@ def fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParam
              & (w < p.max_gap_px) & (s < 4.0) & (rms < 0.35 * (side - F) + 0.004) & in_img
              & inside[:, inside.shape[1] // 2])
     return {"valid": valid, "centre": centre, "depth": depth, "width": w, "rms": rms,
-            "contrast": side - F}
+            "contrast": side - F, "left": L, "right": R}
 
 
 def track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectParams,
