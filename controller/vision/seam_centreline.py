@@ -53,12 +53,16 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         return
     i0, i1 = run
     sel = np.arange(i0, i1 + 1)
-    ok = valid[sel]
+    ok = _trim_rims(valid[sel], hole=3, rim=int(round(16.0 / p.step_px)))
     pts_run = fit["centre"][sel].copy()
     t = np.arange(len(sel), dtype=np.float64)
     if (~ok).any():
-        # Bridged samples (a hole in the gap) follow a cubic through the measured ones.
+        # Bridged samples (a hole in the gap) follow a cubic through the measured ones; across a
+        # long hole (a tack weld) a quadratic fitted to the gap on both sides (an interpolating
+        # cubic swings with the last samples' noise: millimetres once triangulated).
         pts_run[~ok] = CubicSpline(t[ok], pts_run[ok], axis=0)(t[~ok])
+        pts_run = _bridge_long_holes(t, pts_run, ok, long=int(round(40.0 / p.step_px)),
+                                     reach=int(round(160.0 / p.step_px)))
     win = int(min((len(sel) - 1) // 2 * 2 + 1, 2 * int(round(14 / p.step_px)) + 1))
     if win >= 5:
         sm = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
@@ -67,6 +71,8 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         good = ok & (dev < max(4 * mad, 0.6))
         if (~good).any():
             pts_run[~good] = CubicSpline(t[good], pts_run[good], axis=0)(t[~good])
+            pts_run = _bridge_long_holes(t, pts_run, good, long=int(round(40.0 / p.step_px)),
+                                         reach=int(round(160.0 / p.step_px)))
         pts_run = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
     depth_med = float(np.median(fit["depth"][sel][ok]))
     # Honest ends: where the sheets end (or the image does), found from the two sides separately.
@@ -170,6 +176,49 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         c.score = length * c.depth * c.valid_frac if c.rival else 0.0
         return
     c.score = length * c.depth * c.valid_frac
+
+
+def _bridge_long_holes(t: F64, pts: F64, ok: NDArray[np.bool_], long: int,
+                       reach: int) -> F64:
+    """``pts`` with each hole of ``long`` samples or more in ``ok`` refilled by a quadratic.
+
+    The quadratic (per coordinate, over the sample index ``t``) is fitted by least squares to
+    the measured samples within ``reach`` on both sides of the hole: it follows a curved seam
+    and averages the noise of the samples next to the hole.
+    """
+    out = pts.copy()
+    m = np.concatenate([[1], ok.astype(np.int8), [1]])
+    for a, b in zip(np.flatnonzero(np.diff(m) == -1), np.flatnonzero(np.diff(m) == 1),
+                    strict=True):
+        if b - a < long or a == 0 or b == len(ok):
+            continue
+        near = ok & (t >= t[a] - reach) & (t < t[b - 1] + reach + 1)
+        if near[:a].sum() < 3 or near[b:].sum() < 3:
+            continue
+        coef = np.polyfit(t[near] - t[a], pts[near], 2)
+        tq = t[a:b] - t[a]
+        out[a:b] = np.column_stack([np.polyval(coef[:, k], tq) for k in range(pts.shape[1])])
+    return out
+
+
+def _trim_rims(ok: NDArray[np.bool_], hole: int, rim: int) -> NDArray[np.bool_]:
+    """``ok`` without the ``rim`` samples next to each hole of ``hole`` samples or more.
+
+    The last profiles before a tack weld or a spatter ball see its rim (and a crater can look
+    like the gap beside the line): fits there pull the centreline off by pixels, millimetres
+    once triangulated. The centreline is bridged across the wider hole instead. The run's own
+    first and last samples are kept (their ends are measured separately).
+    """
+    out = ok.copy()
+    m = np.concatenate([[1], ok.astype(np.int8), [1]])
+    st, en = np.flatnonzero(np.diff(m) == -1), np.flatnonzero(np.diff(m) == 1)
+    for a, b in zip(st, en, strict=True):
+        if b - a >= hole:
+            out[max(a - rim, 0):a] = False
+            out[b:b + rim] = False
+    if out.sum() < 4:
+        return ok
+    return out
 
 
 def _longest_bridged_run(valid: NDArray[np.bool_], bridge: int, min_island: int,

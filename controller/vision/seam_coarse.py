@@ -222,13 +222,13 @@ def drop_duplicates(cands: list[Candidate]) -> list[Candidate]:
     for c in order:
         if c.points is not None and not c.why_rejected and any(
                 k.points is not None and not k.why_rejected
-                and _share_near(c.points, k.points, 3.0) >= 0.8 for k in kept):
+                and share_near(c.points, k.points, 3.0) >= 0.8 for k in kept):
             continue
         kept.append(c)
     return kept
 
 
-def _share_near(poly: F64, ref: F64, tol: float) -> float:
+def share_near(poly: F64, ref: F64, tol: float) -> float:
     """Share of the points of ``poly`` within ``tol`` px of a point of ``ref`` (subsampled)."""
     a, b = poly[::4], ref[::max(1, len(ref) // 400)]
     d = np.min(np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2), axis=1)

@@ -52,7 +52,12 @@ from numpy.typing import ArrayLike, NDArray
 from controller.errors import InputError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
-from controller.vision.seam_coarse import coarse_candidates, drop_duplicates, mean_dist
+from controller.vision.seam_coarse import (
+    coarse_candidates,
+    drop_duplicates,
+    mean_dist,
+    share_near,
+)
 from controller.vision.seam_decision import (
     IMAGE_BORDER,
     JOINT_END,
@@ -62,7 +67,7 @@ from controller.vision.seam_decision import (
     public_end_kinds,
     spans_of,
 )
-from controller.vision.seam_params import F64, DetectParams
+from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import robust_candidates
 
@@ -162,9 +167,15 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     if hint_arr is not None:
         cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
     cands = cands[: p.max_candidates]
+    done: list[Candidate] = []
     for c in cands:
+        # A piece of a seam already refined across its covered patches is that seam again.
+        if any(k.points is not None and not k.why_rejected
+               and share_near(c.polyline, k.points, 6.0) >= 0.8 for k in done):
+            continue
         refine(sub, lut, c, p)
-    cands = drop_duplicates(cands)
+        done.append(c)
+    cands = drop_duplicates(done)
     details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
     try:
         best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))

@@ -122,7 +122,12 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     if k_border <= k:
         k, kind = k_border, "image border"
     beyond = None
-    if kind.endswith("sheet border") or kind == "open":
+    border = kind.endswith("sheet border")
+    if border and _sheets_end(grey, lut, e_pt + k * tang, tang, w_med):
+        return float(k), kind, None
+    if border or kind == "open":
+        # A step on the joint only (a bead on it: the sheets go on beside it), or a line that
+        # fades out: is the same gap seen again beyond?
         ahead = tang if chord is None else chord
         beyond = gap_resumes(grey, lut, e_pt + k * tang, ahead, w_med,
                              _border_crossing(e_pt + k * tang, ahead, W, H, 0.0))
@@ -130,11 +135,10 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
             # What stopped the gap is a patch on the joint (a tack weld, spatter, slag, a marker
             # ring), not the end of the sheets nor of a line: the same gap goes on beyond it.
             kind = "covered"
-        elif kind.endswith("sheet border") and not _sheets_end(grey, lut, e_pt + k * tang, tang,
-                                                               w_med):
-            # The step is local to the joint (a bead on it), the sheets go on beside it: not
-            # the joint's end. Near the image border the gap beyond cannot be seen: the view of
-            # the seam stops here; elsewhere the seam is covered and this piece is not a seam.
+        elif border:
+            # Not the joint's end. Near the image border the gap beyond cannot be seen: the
+            # view of the seam stops here; elsewhere the seam is covered and this piece is not
+            # a seam by itself.
             kind = "image border" if k_border - k < _VERIFY_PX else "covered"
     return float(k), kind, beyond
 
@@ -162,7 +166,7 @@ _FAR_PX = 48.0  # beside the joint, past the half width of a tack bead
 # Room needed beyond a sheet-border end to tell it from a tack weld: a bead (up to ~80 px in the
 # dry run's and the photographs' views) and a run of the gap beyond it.
 _VERIFY_PX = 80.0 + _RESUME_RUN_PX
-_FAN_DEG = tuple(float(a) for a in range(-24, 25, 4))  # 4 deg: +-8 px at 115 px
+_FAN_DEG = tuple(float(a) for a in range(-16, 17, 4))  # 4 deg: +-8 px at 115 px
 
 
 def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med: float,
@@ -171,11 +175,12 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
 
     Looks along ``tang`` (unit, pointing out of the seam) from 12 px past the end to
     ``_RESUME_REACH_PX`` (or ``room_px``, the distance to the image border), in a fan of
-    directions (a curved seam leaves a straight line: +-24 deg covers a radius down to about
-    half the reach), for a run of at least ``_RESUME_RUN_PX`` of profiles that fit a gap of
-    about the same width close to the line. A sheet border has the table beyond it; a tack weld
-    or a spatter ball has the same joint beyond it. Returns the measured centres of the longest
-    such run (M, 2) px, in order away from the end.
+    directions (a curved seam leaves a straight line: +-16 deg around the seam's chord covers
+    a radius down to about the reach), for a run of at least ``_RESUME_RUN_PX`` of profiles
+    that fit a gap of about the same width close to the line, between the same sheets (their
+    levels within 35 % of those just before the end). A sheet border has the table beyond it;
+    a tack weld or a spatter ball has the same joint beyond it. Returns the measured centres of
+    the longest such run (M, 2) px, in order away from the end.
     """
     from controller.vision.seam_params import DetectParams  # the defaults, not a caller's tuning
     p = DetectParams()
