@@ -18,7 +18,6 @@ from controller.geometry.kinematics import (
     check_joint_limits,
     flange_pose,
     irb2400,
-    solve_ik,
     solve_ik_near,
 )
 from controller.geometry.poses import check_pose, invert
@@ -120,11 +119,16 @@ class MoveLinear:
         object.__setattr__(self, "T_base_tcp", check_pose(self.T_base_tcp, "move_linear target"))
         object.__setattr__(self, "speed_mm_s", _speed(self.speed_mm_s, "move_linear speed"))
 
-    def check(self, limits: SafetyLimits, tool: ToolData) -> None:
-        """Box, speed, and IK reachability (raises ReachabilityError / JointLimitError)."""
+    def check(self, limits: SafetyLimits, tool: ToolData, near_deg: F64 | None = None) -> F64:
+        """Box, speed, and IK reachability (raises ReachabilityError / JointLimitError).
+
+        Returns a solution (controller deg); ``near_deg`` (joints the robot is at or near) only
+        speeds the search up: the target is refused exactly when no solution exists.
+        """
         limits.check_point(self.T_base_tcp[:3, 3], "move_linear target")
         limits.check_speed(self.speed_mm_s, "move_linear")
-        solve_ik(irb2400(), self.T_base_tcp @ invert(tool.T_flange_tcp), name="move_linear target")
+        return solve_ik_near(irb2400(), self.T_base_tcp @ invert(tool.T_flange_tcp), near_deg,
+                             name="move_linear target")
 
 
 #: Samples of an arc checked against the safety box (a 180 deg arc: every 11 deg).
@@ -183,17 +187,20 @@ class PathTargets:
             circles.append(v)
         object.__setattr__(self, "circles", tuple(circles))
 
-    def check(self, limits: SafetyLimits, tool: ToolData, capacity: int) -> None:
+    def check(self, limits: SafetyLimits, tool: ToolData, capacity: int,
+              near_deg: F64 | None = None) -> F64:
         """Length within ``capacity``, every point in the box and reachable; names the point.
 
-        An arc is checked too: its points (sampled) in the box, its middle reachable.
+        An arc is checked too: its points (sampled) in the box, its middle reachable. Returns the
+        last point's solution (controller deg); ``near_deg`` (joints near the path's start) only
+        seeds the search.
         """
         if len(self.targets) > capacity:
             raise SafetyError(f"the path has {len(self.targets)} points, the controller buffer "
                               f"holds {capacity}; split the weld, nothing was sent",
                               points=len(self.targets), capacity=capacity)
         T_tcp_flange = invert(tool.T_flange_tcp)
-        near = None
+        near = near_deg
         if self.start is not None:
             limits.check_point(self.start[:3, 3], "path start")
         for i, (T, via) in enumerate(zip(self.targets, self.circles, strict=True)):
@@ -208,6 +215,8 @@ class PathTargets:
                 mid = arc[_ARC_SAMPLES // 2] @ T_tcp_flange
                 near = solve_ik_near(irb2400(), mid, near, name=f"the circle to {name}")
             near = solve_ik_near(irb2400(), T @ T_tcp_flange, near, name=name)
+        assert near is not None  # a path has a point
+        return near
 
 
 @dataclass(frozen=True)

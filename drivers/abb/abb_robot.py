@@ -82,6 +82,7 @@ class AbbRobot(Robot):
         self._path_start: np.ndarray | None = None  # where a circle to path point 1 starts
         self._last_linear: tuple[MotionHandle, np.ndarray] | None = None
         self._speed_zone = ""  # the last SV the controller accepted ("": unknown, send it)
+        self._near: np.ndarray | None = None  # joints near the robot's: seeds the reach checks
         self._capacity = 0
         self._info: dict[str, Any] = {}
         self._last_status_t = 0.0
@@ -210,6 +211,7 @@ class AbbRobot(Robot):
         """Check, then ``SV`` + ``MJ``; the handle completes on ``IP``."""
         cmd = MoveJoints(np.asarray(joints_deg, dtype=np.float64), speed_mm_s)
         cmd.check(self.limits, self._tool)
+        self._near = cmd.joints_deg
         self._set_speed(cmd.speed_mm_s, 0.0)
         mid = self._next_mid()
         h = self._handle(mid, "move_joints")
@@ -219,7 +221,7 @@ class AbbRobot(Robot):
     def move_linear(self, T_base_tcp: ArrayLike, speed_mm_s: float = 100.0) -> MotionHandle:
         """Check, then ``SV`` + ``XT 0`` (or ``XP 0`` + ``XO 0``) + ``ML``; done on ``IP``."""
         cmd = MoveLinear(np.asarray(T_base_tcp, dtype=np.float64), speed_mm_s)
-        cmd.check(self.limits, self._tool)
+        self._near = cmd.check(self.limits, self._tool, self._near)
         p, q = pos_quat_from_pose(cmd.T_base_tcp)
         self._set_speed(cmd.speed_mm_s, 0.0)
         for body in codec.target_bodies(0, p, q):
@@ -248,7 +250,7 @@ class AbbRobot(Robot):
                            tuple(None if c is None else np.asarray(c, dtype=np.float64)
                                  for c in circles),
                            None if start is None else np.asarray(start, dtype=np.float64))
-        path.check(self.limits, self._tool, self._capacity)
+        near = path.check(self.limits, self._tool, self._capacity, self._near)
         self._path_len = 0
         self._path_start = None
         self._call(f"PN {len(path.targets)}")
@@ -261,6 +263,7 @@ class AbbRobot(Robot):
             if via is not None:
                 self._call(codec.circle_body(i, via))
         self._path_len = len(path.targets)
+        self._near = near  # where the robot will be after the pass
         if path.circles[0] is not None:
             self._path_start = path.start
 

@@ -24,7 +24,6 @@ from controller.errors import ConfigError, InputError, ProtocolError, Reachabili
 from controller.geometry.kinematics import (
     check_joint_limits,
     flange_pose,
-    solve_ik,
     solve_ik_near,
 )
 from controller.geometry.poses import (
@@ -315,7 +314,7 @@ class MockServer:
             return codec.error_body(21, "target slot 0 incomplete")
         j0, T0 = self.arm.current()
         try:
-            j1 = solve_ik(self.arm.model, T1, near_deg=j0)
+            j1 = solve_ik_near(self.arm.model, T1, j0)  # the arm's configuration, continued
         except ReachabilityError:
             return codec.error_body(30, "target unreachable")
         self._slot_pos.pop(0, None)
@@ -342,7 +341,7 @@ class MockServer:
                 j = cached[1]
             else:
                 try:
-                    j = solve_ik(self.arm.model, T, near_deg=j_prev)
+                    j = solve_ik_near(self.arm.model, T, j_prev)
                 except ReachabilityError:
                     j = None
             if j is None:
