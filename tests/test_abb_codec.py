@@ -111,6 +111,7 @@ def worst_case_messages() -> list[tuple[str, int, str]]:
     bodies_q = ["HI 999", "ID", "RJ", "RP", "RQ", f"TP {p}", f"TO {q}", "SV 1000.0 200.0",
                 f"XP 9999 {p}", f"XO 9999 {q}", "XR 9999", f"XC 9999 {p}", "PN 9999",
                 *codec.target_bodies(9999, [-9999.999] * 3, [0.5, -0.5, -0.5, -0.5]),
+                *codec.linear_move_bodies(9999, [-9999.999] * 3, [0.5, -0.5, -0.5, -0.5]),
                 f"MJ 9999 {j}", "ML 9999",
                 "RW 9999 1", "AB", "ST", "CK"]
     bodies_a = ["OK 9999 9999 R", "OK SGRS 1 IRB2400 9999", f"OK {j}", f"OK {p}", f"OK {q}",

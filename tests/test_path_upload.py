@@ -97,6 +97,11 @@ def test_target_bodies_fall_back_to_two_lines_when_one_does_not_fit():
     p, qq = pos_quat_from_pose(make_pose(t_mm=[1000.0, -50.0, 300.0]))
     assert f[2:5] == codec.fmt_position(p, trim=True).split() == ["1000", "-50", "300"]
     assert [float(v) for v in f[5:]] == [float(v) for v in long[1].split()[2:]]
+    # a linear move: target and move in one line (MT), or the target's lines and ML
+    assert codec.linear_move_bodies(12, [1000.0, -50.0, 300.0], q) == [
+        f"MT 12 {' '.join(f[2:])}"]
+    assert [b.split()[0] for b in codec.linear_move_bodies(
+        9999, [-1800.123, -1800.456, -1800.789], q)] == ["XP", "XO", "ML"]
 
 
 def test_refused_before_a_byte_is_sent(robot):

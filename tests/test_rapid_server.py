@@ -154,6 +154,11 @@ DIFFERENTIAL = [
     "MJ 6 0 0 90 0 0 0", "MJ 6 0 0 0 0 30", "MJ 6 0 10 0 0 60 0", "ST", "RJ",
     "ML 7", "XP 0 5000 0 0", "XO 0 1 0 0 0", "CK", "AB", "ST", "QQ", "A" * 20, "XP 1 2",
     "MJ 8 1 2 3 4 5 6 7 8 9 10 11 12", "ST",
+    # MT: the target and the move in one line; refused, slot 0 is left empty
+    "MT 9 1000 0 1000", "MT x 1000 0 1000 1 0 0 0", "MT 9 1000 0 1000 2 0 0 0", "ML 9",
+    "MT 9 1000 0 1000 0.707107 0 0.707107 0", "ML 10", "MT 9 1000 5 1000 1 0 0 0", "ML 11",
+    "MT 0 1000 0 1000 1 0 0 0", "ML 12", "XT 0 1000 0 1000 0.707107 0 0.707107 0", "MT 13 1",
+    "ML 13", "ST",
 ]
 
 
@@ -161,7 +166,7 @@ def _answers(url_robot_ctl, raw: Raw) -> list[str]:
     out = []
     for body in DIFFERENTIAL:
         reply = raw.ask(body)
-        if body[:2] in ("MJ", "ML", "RW") and reply.startswith("OK"):
+        if body[:2] in ("MJ", "ML", "MT", "RW") and reply.startswith("OK"):
             mid = reply.split()[1]  # wait for its end: the two do not take the same time
             while (ev := raw.line()).kind != "E" or ev.body.split()[:2] not in (
                     ["IP", mid], ["DN", mid], ["FL", mid]):
@@ -186,6 +191,25 @@ def test_the_mock_and_the_rapid_program_give_the_same_replies():
             ctl.stop()
     diffs = [(req, m, r) for req, m, r in zip(DIFFERENTIAL, *answers, strict=True) if m != r]
     assert diffs == [], "\n".join(map(str, diffs))
+
+
+def test_a_bad_target_line_leaves_the_slot_as_it_was_on_both():
+    # SGSERVER.mod kept XT's orientation before it checked the position: a later ML moved to
+    # the old position with the refused line's orientation (the mock checked both first)
+    from drivers.mock.mock_controller import MockController
+
+    for ctl in (MockController(), RapidController()):
+        with served(ctl) as raw:
+            raw.ask("HI 7")
+            assert raw.ask("XT 0 1000 0 1000 0.707107 0 0.707107 0") == "OK"
+            assert raw.ask("XT 0 x 0 1000 1 0 0 0").startswith("ER 12")
+            assert raw.ask("MT 3 1000 0 1000 1 0 0 x").startswith("ER 12")
+            assert raw.ask("ML 4") == "OK 4"
+            while (ev := raw.line()).kind != "E" or ev.body.split()[1] != "4":
+                pass
+            assert ev.body == "IP 4"
+            assert raw.ask("RP") == "OK 1000.000 0.000 1000.000"
+            assert raw.ask("RQ") == "OK 0.707107 0.000000 0.707107 0.000000", type(ctl)
 
 
 def test_an_aborted_move_is_reported_at_point_0_by_both():

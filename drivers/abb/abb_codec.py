@@ -238,6 +238,18 @@ def target_bodies(slot: int, p_mm: ArrayLike, q_wxyz: ArrayLike, previous_quat: 
     return [f"XP {slot} {pos}", f"XO {slot} {quat}"]
 
 
+def linear_move_bodies(mid: int, p_mm: ArrayLike, q_wxyz: ArrayLike) -> list[str]:
+    """Request bodies of a linear move ``mid`` to position ``p_mm``, orientation ``q_wxyz``.
+
+    ``MT`` (target and move in one line) when its line fits in :data:`MAX_LINE` characters,
+    else the target slot 0 (:func:`target_bodies`) and ``ML``. The move request is the last.
+    """
+    one = f"MT {mid} {fmt_position(p_mm, trim=True)} {fmt_quat(q_wxyz, trim=True)}"
+    if len(f"Q00 {one}*0000") <= MAX_LINE:
+        return [one]
+    return [*target_bodies(0, p_mm, q_wxyz), f"ML {mid}"]
+
+
 def circle_body(slot: int, p_mm: ArrayLike) -> str:
     """``XC slot x y z``: path point ``slot`` is reached by a MoveC through this point (mm)."""
     return f"XC {slot} {fmt_position(p_mm, trim=True)}"
@@ -336,7 +348,9 @@ def golden_lines() -> list[str]:
         ("Q", 3, target_bodies(2, [1000.5, -50.25, 300.0], [0.0, 0.92388, -0.382683,
                                                               0.0])[0]),
         ("Q", 4, circle_body(3, [1010.0, -45.125, 300.0])),
-        ("Q", 5, "RW 7 1"))]
+        ("Q", 5, "RW 7 1"),
+        ("Q", 6, linear_move_bodies(12, [944.297, 67.225, 302.964],
+                                    [0.051095, 0.803004, -0.589689, 0.069578])[0]))]
 
 
 if __name__ == "__main__":  # pragma: no cover - regenerates the doc's golden table

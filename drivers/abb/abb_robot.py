@@ -219,16 +219,17 @@ class AbbRobot(Robot):
         return h
 
     def move_linear(self, T_base_tcp: ArrayLike, speed_mm_s: float = 100.0) -> MotionHandle:
-        """Check, then ``SV`` + ``XT 0`` (or ``XP 0`` + ``XO 0``) + ``ML``; done on ``IP``."""
+        """Check, then ``SV`` + ``MT`` (or ``XT 0`` / ``XP 0`` + ``XO 0``, then ``ML``); ``IP``."""
         cmd = MoveLinear(np.asarray(T_base_tcp, dtype=np.float64), speed_mm_s)
         self._near = cmd.check(self.limits, self._tool, self._near)
         p, q = pos_quat_from_pose(cmd.T_base_tcp)
         self._set_speed(cmd.speed_mm_s, 0.0)
-        for body in codec.target_bodies(0, p, q):
-            self._call(body)
         mid = self._next_mid()
+        *target, move = codec.linear_move_bodies(mid, p, q)
+        for body in target:
+            self._call(body)
         h = self._handle(mid, "move_linear")
-        self._call(f"ML {mid}")
+        self._call(move)
         self._last_linear = (h, cmd.T_base_tcp.copy())
         return h
 

@@ -305,8 +305,8 @@ class MockServer:
                     target=[float(v) for v in j])
         return codec.ok_body(str(mid))
 
-    def _cmd_ML(self, a: list[str], after: list[Callable[[], None]]) -> str:
-        mid, err = self._motion_preamble(a, 1, "ML")
+    def _cmd_ML(self, a: list[str], after: list[Callable[[], None]], cmd: str = "ML") -> str:
+        mid, err = self._motion_preamble(a, 1, cmd)
         if err:
             return err
         T1 = self._target(0)
@@ -322,6 +322,21 @@ class MockServer:
         self._start(mid, "move_linear", [(j1, T1, self.arm.seg_time(T0, T1), None)], after,
                     target=[float(v) for v in T1[:3, 3]])
         return codec.ok_body(str(mid))
+
+    def _cmd_MT(self, a: list[str], after: list[Callable[[], None]]) -> str:
+        """``XT 0`` and ``ML mid`` in one request; slot 0 is emptied when the move is refused."""
+        self._nargs(a, 8, "MT")
+        p = codec.parse_numbers(a[1:4], 3, "target position")
+        self._slot_quat[0] = self._quat(a[4:], "target quaternion")
+        self._slot_pos[0] = p
+        reply = ""
+        try:
+            reply = self._cmd_ML(a[:1], after, "MT")
+        finally:
+            if not reply.startswith("OK"):
+                self._slot_pos.pop(0, None)
+                self._slot_quat.pop(0, None)
+        return reply
 
     def _cmd_RW(self, a: list[str], after: list[Callable[[], None]]) -> str:
         mid, err = self._motion_preamble(a, 2, "RW")

@@ -35,7 +35,7 @@ MODULE SGSERVER
   CONST string DIGITS := "0123456789";
   CONST string JOBCHARS := "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_";
   ! the requests this server knows, each between spaces
-  CONST string REQUESTS := " HI ID ST RJ RP RQ TP TO SV XP XO XR XT XC PN CK AB MJ ML RW ";
+  CONST string REQUESTS := " HI ID ST RJ RP RQ TP TO SV XP XO XR XT XC PN CK AB MJ ML MT RW ";
   ! longest body that fits a line: 80 - "A12 " - "*ABCD"
   CONST num MAXBODY := 71;
 
@@ -430,6 +430,7 @@ MODULE SGSERVER
     ENDIF
     IF c = "XP" OR c = "XO" OR c = "XR" OR c = "XT" RETURN Target(c);
     IF c = "XC" RETURN Circle();
+    IF c = "MT" RETURN MoveTo();
     IF c = "PN" THEN
       IF nf <> 2 OR (NOT IntArg(2, a)) RETURN "ER 12 bad arguments to PN";
       IF a < 1 RETURN "ER 12 bad arguments to PN";
@@ -484,16 +485,7 @@ MODULE SGSERVER
       slots{k + 1}.rot := [w, x, y, z];
       haverot{k + 1} := TRUE;
     ELSEIF c = "XT" THEN
-      ! both checked before either is kept
-      IF NOT (NumArg(6, w) AND NumArg(7, x) AND NumArg(8, y) AND NumArg(9, z)) RETURN "ER 12 bad arguments to XT";
-      IF Abs(Sqrt(w * w + x * x + y * y + z * z) - 1) > 0.001 RETURN "ER 12 bad arguments to XT";
-      slots{k + 1}.rot := [w, x, y, z];
-      IF NOT (NumArg(3, x) AND NumArg(4, y) AND NumArg(5, z)) RETURN "ER 12 bad arguments to XT";
-      slots{k + 1}.trans := [x, y, z];
-      slots{k + 1}.robconf := [0, 0, 0, 0];
-      slots{k + 1}.extax := [9E9, 9E9, 9E9, 9E9, 9E9, 9E9];
-      havepos{k + 1} := TRUE;
-      haverot{k + 1} := TRUE;
+      IF NOT PoseArgs(k) RETURN "ER 12 bad arguments to XT";
     ELSE
       ! orientation of slot k = that of slot k - 1 (path points only)
       IF k < 2 RETURN "ER 21 no orientation to repeat";
@@ -502,6 +494,42 @@ MODULE SGSERVER
       haverot{k + 1} := TRUE;
     ENDIF
     RETURN "OK";
+  ENDFUNC
+
+  ! fields 3..9 (x y z q1 q2 q3 q4, as XT and MT carry them) into slot k; FALSE when
+  ! any is bad, and then the slot is left as it was (all seven checked before any is kept)
+  FUNC bool PoseArgs(num k)
+    VAR num px;
+    VAR num py;
+    VAR num pz;
+    VAR num w;
+    VAR num x;
+    VAR num y;
+    VAR num z;
+    IF NOT (NumArg(3, px) AND NumArg(4, py) AND NumArg(5, pz)) RETURN FALSE;
+    IF NOT (NumArg(6, w) AND NumArg(7, x) AND NumArg(8, y) AND NumArg(9, z)) RETURN FALSE;
+    IF Abs(Sqrt(w * w + x * x + y * y + z * z) - 1) > 0.001 RETURN FALSE;
+    slots{k + 1}.trans := [px, py, pz];
+    slots{k + 1}.rot := [w, x, y, z];
+    slots{k + 1}.robconf := [0, 0, 0, 0];
+    slots{k + 1}.extax := [9E9, 9E9, 9E9, 9E9, 9E9, 9E9];
+    havepos{k + 1} := TRUE;
+    haverot{k + 1} := TRUE;
+    RETURN TRUE;
+  ENDFUNC
+
+  ! MT mid x y z q1 q2 q3 q4: XT 0 and ML mid in one request. Slot 0 keeps the target
+  ! only while the move is accepted: refused, it is emptied (no later ML moves to it)
+  FUNC string MoveTo()
+    VAR string r;
+    IF nf <> 9 RETURN "ER 12 bad arguments to MT";
+    IF NOT PoseArgs(0) RETURN "ER 12 bad arguments to MT";
+    r := Motion("MT");
+    IF StrPart(r, 1, 3) <> "OK " THEN
+      havepos{1} := FALSE;
+      haverot{1} := FALSE;
+    ENDIF
+    RETURN r;
   ENDFUNC
 
   ! XC k x y z: path point k is reached by a MoveC through this circle point (mm)
@@ -547,7 +575,7 @@ MODULE SGSERVER
     VAR num a;
     VAR num v{6};
     VAR robtarget start;
-    IF (c = "MJ" AND nf <> 8) OR (c = "ML" AND nf <> 2) OR (c = "RW" AND nf <> 3) RETURN "ER 12 bad arguments to " + c;
+    IF (c = "MJ" AND nf <> 8) OR (c = "ML" AND nf <> 2) OR (c = "MT" AND nf <> 9) OR (c = "RW" AND nf <> 3) RETURN "ER 12 bad arguments to " + c;
     IF NOT IntArg(2, m) RETURN "ER 12 bad arguments to " + c;
     IF m < 1 RETURN "ER 12 bad arguments to " + c;
     IF mstate = "R" RETURN "ER 20 busy: a motion is running";
@@ -562,7 +590,7 @@ MODULE SGSERVER
         OR Abs(v{4}) > 200 OR Abs(v{5}) > 120 OR Abs(v{6}) > 400 RETURN "ER 31 joints outside limits";
       jt.robax := [v{1}, v{2}, v{3}, v{4}, v{5}, v{6}];
       jt.extax := [9E9, 9E9, 9E9, 9E9, 9E9, 9E9];
-    ELSEIF c = "ML" THEN
+    ELSEIF c = "ML" OR c = "MT" THEN
       IF NOT (havepos{1} AND haverot{1}) RETURN "ER 21 target slot 0 incomplete";
       IF NOT Reachable(slots{1}) RETURN "ER 30 target unreachable";
       havepos{1} := FALSE;
@@ -592,6 +620,7 @@ MODULE SGSERVER
     mid := m;
     last_mid := m;
     mkind := c;
+    IF c = "MT" mkind := "ML";
     mstate := "R";
     pidx := 0;
     err := 0;
