@@ -2,24 +2,29 @@
 
 The benchmark cycle is the dry run's default: scene ``s_curve`` seed 1 ``medium`` (a 180 mm
 S-curve seam), two views, the exact calibration, the job's default path tolerance. It runs as the
-cell runs it (``SimRig``: the real client over a pseudo-terminal) against the mock controller at
+cell runs it (``SimRig``: the real client over a pseudo-terminal) against the controller
+(``--backend mock``: the Python mock; ``rapid``: SGSERVER.mod in the RAPID interpreter) at
 ``--baud`` with motion almost instantaneous, so the time spent inside the robot's calls is the
 link time as the client sees it. Printed (one JSON object), all measured in the same run:
 
-* ``link``: bytes to / from the controller and the wire time they take at the baud rate
-  (computed: bytes x 10 bits / baud), and the time measured inside the robot calls of the cycle;
-  beside it the same cycle's link traffic replayed through a fresh mock with the path sent the
-  old way (every dense point, ``XP`` + ``XO``/``XR``) and with the fitted segments;
-* ``executed``: the weld the mock's arm executed (its own motion model, traced every 0.05 mm)
-  against the dense planned path, both ways: the largest distance (mm), torch axis angle and spin
-  about the torch axis (deg), and the whole orientation angle for reference;
+* ``cycle``: requests, bytes to / from the controller and the wire time they take at the baud
+  rate (computed: bytes x 10 bits / baud), and the time measured inside the robot calls of the
+  cycle (``--repeat N``: N cycles on fresh controllers, each measured, and their median); the
+  session's opening (``HI`` + ``ID``, once per connection, before the cycle) apart;
+* ``replay_*``: the cycle's robot calls again on a fresh controller of the same backend, with the
+  path sent the old way (every dense point, ``XT`` / ``XP`` + ``XR``) and as the fitted segments,
+  at the baud rate and on an infinitely fast line (``no_wire``: the client's and the
+  controller's own processing);
+* ``executed``: the weld the arm executed with the arc on (its own motion model, traced every
+  0.05 mm; on both backends) against the dense planned path, both ways: the largest distance
+  (mm), torch axis angle and spin about the torch axis (deg), and the whole orientation angle;
 * ``planning``: ``plan_weld`` (inverse kinematics of every target with its reach checks) on the
   cycle's seam, by continuity (now) and with the full solution set at every target (before), each
   the median of 5 runs, as milliseconds and as a ratio to one forward kinematics call measured in
   the same run; and the segment fit's time.
 
     .venv/bin/python bench/bench_link_time.py                 # 9600 baud, the mock
-    .venv/bin/python bench/bench_link_time.py --backend rapid # SGSERVER.mod in the interpreter
+    .venv/bin/python bench/bench_link_time.py --backend rapid --repeat 5  # SGSERVER.mod
 """
 
 from __future__ import annotations
@@ -105,6 +110,7 @@ def replay(path: WeldPath, views: list[np.ndarray], backend: str, baud: int, den
     tool, the approach, the dry line to the weld's start, the upload, the weld, the dry depart.
     """
     with open_robot(f"{backend}://?baud={baud}", timeout_s=60.0) as robot:
+        opening = dict(robot.mock.link_stats)  # HI + ID: not the cycle's
         acc = timed_robot(robot)
         for v in views:
             robot.move_joints(v, speed_mm_s=200.0).wait(60.0)
@@ -122,7 +128,8 @@ def replay(path: WeldPath, views: list[np.ndarray], backend: str, baud: int, den
             robot.upload_path(sent, circles, start=path.start)
         robot.run_weld(speed).wait(120.0)
         robot.move_linear(path.targets[-1].T_base_tcp, speed_mm_s=speed).wait(60.0)
-        st = dict(robot.mock.link_stats)
+        st = {k: robot.mock.link_stats[k] - opening[k] for k in ("bytes_rx", "bytes_tx",
+                                                                 "lines_rx")}
     total = st["bytes_rx"] + st["bytes_tx"]
     baud = baud or 1_000_000_000  # no wire time
     return {"path_points_sent": len(sent), "requests": int(st["lines_rx"]),
@@ -170,30 +177,33 @@ def planning_figures(seam_mm: np.ndarray, normal: np.ndarray, params: Any, works
             "fit_ms": round(1e3 * t_fit, 1), "fit_fk_calls": round(t_fit / fk_s)}
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--baud", type=int, default=9600)
-    ap.add_argument("--backend", choices=("mock", "rapid"), default="mock")
-    ap.add_argument("--no-replay", action="store_true",
-                    help="skip the replays (the cycle and planning only)")
-    args = ap.parse_args()
+def run_cycle(args: argparse.Namespace, measured: list[float] | None) -> dict[str, Any]:
+    """The benchmark cycle once on a fresh controller: its link figures and the executed path.
+
+    ``measured``: the link times of earlier runs; with it the result has their spread and the
+    objects the rest of the benchmark needs (``_path``, ``_views``, ``_job``, ``_seam``).
+    """
     rig = SimRig(scene_kind="s_curve", seed=1, difficulty="medium", speedup=1e6,
                  robot_options=f"baud={args.baud}")
     if args.backend == "rapid":
         rig.robot_url = rig.robot_url.replace("mock://", "rapid://")
     with rig:
+        opening = dict(rig.mock.link_stats)  # the session's HI + ID, once per connection
         acc = timed_robot(rig.robot)
         result = rig.cycle(None).run()
         if not result.ok:
-            print(json.dumps({"status": result.status, "reason": result.reason}))
-            return 1
-        st = dict(rig.mock.link_stats)
+            return {"status": result.status, "reason": result.reason}
+        st = {k: rig.mock.link_stats[k] - opening[k] for k in ("bytes_rx", "bytes_tx",
+                                                               "lines_rx", "lines_tx")}
         path = result.path
         assert path is not None and result.seam is not None
         out: dict[str, Any] = {"backend": args.backend, "baud": args.baud,
                                "dense_weld_points": len(path.weld_targets),
                                "segments": len(path.segments),
                                "movec": sum(s.via_mm is not None for s in path.segments)}
+        opened = opening["bytes_rx"] + opening["bytes_tx"]
+        out["session_opening"] = {"requests": int(opening["lines_rx"]), "bytes": int(opened),
+                                  "computed_s": round(10.0 * opened / args.baud, 2)}
         total = st["bytes_rx"] + st["bytes_tx"]
         out["cycle"] = {"requests": int(st["lines_rx"]),
                         "lines_from_controller": int(st["lines_tx"]),
@@ -201,6 +211,12 @@ def main() -> int:
                         "bytes_from_controller": int(st["bytes_tx"]),
                         "computed_s": round(10.0 * total / args.baud, 2),
                         "measured_in_robot_calls_s": round(acc["s"], 2)}
+        if measured is None:
+            return out
+        if measured:
+            runs = sorted([*measured, out["cycle"]["measured_in_robot_calls_s"]])
+            out["cycle"]["measured_runs_s"] = runs
+            out["cycle"]["measured_median_s"] = round(statistics.median(runs), 2)
         if args.backend == "mock":  # the pass: one motion of the mock's arm
             weld = [e for e in rig.mock.executed if e["kind"] == "weld"]
             segs = weld[-1]["tcp_segments"]
@@ -210,10 +226,30 @@ def main() -> int:
         dense = np.array([t.T_base_tcp for t in path.weld_targets])
         out["executed"] = {"segments_run_arc_on": len(segs),
                            **executed_vs_planned(trace, dense)}
-        views = [np.asarray(v.joints_deg) for v in rig.job.views]
-        job = rig.job
-        normal = np.asarray(job.seam.normal, dtype=np.float64)
-        start = views[-1]  # where the cycle plans from: the robot at the last view
+        out.update(_path=path, _views=[np.asarray(v.joints_deg) for v in rig.job.views],
+                   _job=rig.job, _seam=result.seam.points_mm)
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baud", type=int, default=9600)
+    ap.add_argument("--backend", choices=("mock", "rapid"), default="mock")
+    ap.add_argument("--no-replay", action="store_true",
+                    help="skip the replays (the cycle and planning only)")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="run the whole cycle this many times (fresh controller each), for the "
+                    "spread of the measured link time")
+    args = ap.parse_args()
+    measured: list[float] = []
+    for i in range(args.repeat):
+        out = run_cycle(args, measured if i == args.repeat - 1 else None)
+        if out.get("status"):
+            print(json.dumps(out))
+            return 1
+        measured.append(out["cycle"]["measured_in_robot_calls_s"])
+    measured.pop()  # the last run's own figure is in out
+    path, views, job, seam = out.pop("_path"), out.pop("_views"), out.pop("_job"), out.pop("_seam")
     if not args.no_replay:
         b = args.backend
         out["replay_dense"] = replay(path, views, b, args.baud, dense=True)
@@ -221,8 +257,9 @@ def main() -> int:
         # the same calls on an infinitely fast line: the client's and the controller's own time
         out["replay_segments_no_wire"] = replay(path, views, b, 0, dense=False)
         out["replay_dense_no_wire"] = replay(path, views, b, 0, dense=True)
-    out["planning"] = planning_figures(result.seam.points_mm, normal, job.weld_params(),
-                                       job.workspace(), start)
+    normal = np.asarray(job.seam.normal, dtype=np.float64)
+    start = views[-1]  # where the cycle plans from: the robot at the last view
+    out["planning"] = planning_figures(seam, normal, job.weld_params(), job.workspace(), start)
     print(json.dumps(out, indent=2))
     return 0
 
