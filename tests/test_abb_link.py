@@ -316,14 +316,14 @@ def test_speed_goes_only_when_it_changes_and_again_after_a_restart(scheme):
         a, b = [0, 10, 0, 0, 60, 0], [5, 10, 0, 0, 60, 0]
         for j, v in ((a, 200), (b, 200), (a, 150)):
             robot.move_joints(j, speed_mm_s=v).wait(5.0)
-        assert [x for x in sent if x.startswith("SV")] == ["SV 200 0", "SV 150 0"]
+        assert [x for x in sent if x.startswith("SV")] == ["SV 200 1", "SV 150 1"]
         assert held() == 150.0
         mock.restart()  # the program starts again with its own speed
         with pytest.raises(LinkError, match="controller restarted"):
             robot.move_joints(b, speed_mm_s=150)  # refused (no session): nothing moves
         assert [e["kind"] for e in mock.executed] == ["move_joints"] * 3
         robot.move_joints(b, speed_mm_s=150).wait(5.0)
-        assert [x for x in sent if x.startswith("SV")] == ["SV 200 0", "SV 150 0", "SV 150 0"]
+        assert [x for x in sent if x.startswith("SV")] == ["SV 200 1", "SV 150 1", "SV 150 1"]
         assert held() == 150.0 and len(mock.executed) == 4
 
 

@@ -251,7 +251,7 @@ def test_a_whole_cycle_through_the_rapid_server_itself(tmp_path):
         # only when they change, the weld's start (where the dry line left the torch) not sent
         words = [b.split()[0] for b in sent]
         assert words.count("RJ") == len(rig.job.views) == 2
-        assert [b for b in sent if b.startswith("SV")] == ["SV 200 0", "SV 8 0", "SV 8 1", "SV 8 0"]
+        assert [b for b in sent if b.startswith("SV")] == ["SV 200 1", "SV 8 1"]
         path = result.path
         assert path is not None and len(path.segments) >= 2
         assert f"PN {len(path.segments)}" in sent

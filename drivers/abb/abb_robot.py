@@ -195,13 +195,16 @@ class AbbRobot(Robot):
         self._call(f"TO {codec.fmt_quat(q, trim=True)}")
         self._tool = tool
 
-    def _set_speed(self, speed_mm_s: float, zone_mm: float) -> None:
-        """``SV`` unless the controller already holds this speed and zone (sent by us).
+    def _set_speed(self, speed_mm_s: float) -> None:
+        """``SV`` unless the controller already holds this speed and the weld zone (sent by us).
 
-        The controller keeps them until the next ``SV`` or a program restart (which the client
+        The zone is always :attr:`weld_zone_mm`: only the weld pass's segments use it (``MJ`` and
+        ``ML`` end in a fine point), so a move and the weld at the same speed need one ``SV``.
+        The controller keeps both until the next ``SV`` or a program restart (which the client
         detects and forgets them on); a request that failed leaves them unknown, so sent again.
         """
-        body = f"SV {codec.fmt(speed_mm_s, 1, trim=True)} {codec.fmt(zone_mm, 1, trim=True)}"
+        zone = codec.fmt(self.weld_zone_mm, 1, trim=True)
+        body = f"SV {codec.fmt(speed_mm_s, 1, trim=True)} {zone}"
         if body != self._speed_zone:
             self._speed_zone = ""
             self._call(body)
@@ -212,7 +215,7 @@ class AbbRobot(Robot):
         cmd = MoveJoints(np.asarray(joints_deg, dtype=np.float64), speed_mm_s)
         cmd.check(self.limits, self._tool)
         self._near = cmd.joints_deg
-        self._set_speed(cmd.speed_mm_s, 0.0)
+        self._set_speed(cmd.speed_mm_s)
         mid = self._next_mid()
         h = self._handle(mid, "move_joints")
         self._call(f"MJ {mid} {codec.fmt_joints(cmd.joints_deg, trim=True)}")
@@ -223,7 +226,7 @@ class AbbRobot(Robot):
         cmd = MoveLinear(np.asarray(T_base_tcp, dtype=np.float64), speed_mm_s)
         self._near = cmd.check(self.limits, self._tool, self._near)
         p, q = pos_quat_from_pose(cmd.T_base_tcp)
-        self._set_speed(cmd.speed_mm_s, 0.0)
+        self._set_speed(cmd.speed_mm_s)
         mid = self._next_mid()
         *target, move = codec.linear_move_bodies(mid, p, q)
         for body in target:
@@ -298,7 +301,7 @@ class AbbRobot(Robot):
         if self._path_len == 0:
             raise SafetyError("run_weld: no path uploaded in this session; call upload_path")
         self._check_at_path_start()
-        self._set_speed(cmd.speed_mm_s, self.weld_zone_mm)
+        self._set_speed(cmd.speed_mm_s)
         mid = self._next_mid()
         h = self._handle(mid, "weld", n_points=self._path_len)
         self._call(f"RW {mid} {1 if cmd.arc_output else 0}")
