@@ -1,4 +1,5 @@
-"""The cycle with cut ends: a long seam whose ends leave both images (the dry run's open_ends).
+"""The cycle with cut ends: a long seam whose ends leave both images (the dry run's open_ends),
+and the same seam with tack welds and spatter on it (tack_open: issue 13's dry run).
 
 The job decides: clip to the nominal region (DONE, the record says which ends were clipped) or
 refuse (FAULT with the reason, nothing welded). State timeouts are relaxed: this seam is twice
@@ -16,8 +17,8 @@ from controller.cell.job import TimeoutsSpec
 pytestmark = pytest.mark.slow
 
 
-def run(tmp_path, clip):
-    with SimRig(scene_kind="open_ends", seed=2, speedup=200.0, clip_unseen_ends=clip) as rig:
+def run(tmp_path, clip, scene="open_ends"):
+    with SimRig(scene_kind=scene, seed=2, speedup=200.0, clip_unseen_ends=clip) as rig:
         rig.job = dataclasses.replace(rig.job, timeouts=TimeoutsSpec(
             capture_s=600.0, locate_s=600.0, plan_s=600.0))
         cycle = rig.cycle(tmp_path)
@@ -26,9 +27,10 @@ def run(tmp_path, clip):
     return rep, welds
 
 
+@pytest.mark.parametrize("scene", ["open_ends", "tack_open"])
 @pytest.mark.parametrize("clip", [True, False])
-def test_open_ends_clipped_or_refused(tmp_path, clip):
-    rep, welds = run(tmp_path, clip)
+def test_open_ends_clipped_or_refused(tmp_path, clip, scene):
+    rep, welds = run(tmp_path, clip, scene)
     r = rep.result
     doc = read_record(r.record_path)
     if clip:

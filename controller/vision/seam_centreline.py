@@ -54,6 +54,9 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     i0, i1 = run
     sel = np.arange(i0, i1 + 1)
     ok = _trim_rims(valid[sel], hole=3, rim=int(round(16.0 / p.step_px)))
+    # The run ends at its last measured samples (a patch at an end is not bridged into).
+    kept = np.flatnonzero(ok)
+    sel, ok = sel[kept[0]:kept[-1] + 1], ok[kept[0]:kept[-1] + 1]
     pts_run = fit["centre"][sel].copy()
     t = np.arange(len(sel), dtype=np.float64)
     if (~ok).any():
@@ -216,6 +219,14 @@ def _trim_rims(ok: NDArray[np.bool_], hole: int, rim: int) -> NDArray[np.bool_]:
         if b - a >= hole:
             out[max(a - rim, 0):a] = False
             out[b:b + rim] = False
+    # What is left of an island between a patch and the run's end is the patch's far rim.
+    m = np.concatenate([[0], out.astype(np.int8), [0]])
+    ist, ien = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
+    if len(ist) > 1:
+        if ien[0] - ist[0] < rim:
+            out[ist[0]:ien[0]] = False
+        if ien[-1] - ist[-1] < rim:
+            out[ist[-1]:ien[-1]] = False
     if out.sum() < 4:
         return ok
     return out

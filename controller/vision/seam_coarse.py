@@ -215,14 +215,18 @@ def drop_duplicates(cands: list[Candidate]) -> list[Candidate]:
     """``cands`` (refined) without those lying on a stronger one's centreline.
 
     Two pieces of one seam (split by a tack weld in the coarse search) are each extended across
-    the patch when refined and then cover the same line: the same seam, not a rival.
+    the patch when refined and then cover the same line: the same seam, not a rival. A rejected
+    rival lying 60 % on an accepted seam is dropped too.
     """
     kept: list[Candidate] = []
     order = sorted(cands, key=lambda c: -c.score if not c.why_rejected else 1.0)
     for c in order:
-        if c.points is not None and not c.why_rejected and any(
+        if c.points is not None and (not c.why_rejected or c.rival) and any(
                 k.points is not None and not k.why_rejected
-                and share_near(c.points, k.points, 3.0) >= 0.8 for k in kept):
+                and share_near(c.points, k.points, 3.0) >= (0.8 if not c.why_rejected else 0.6)
+                for k in kept):
+            # A rejected piece mostly on the chosen seam (it ran off along a scratch at one
+            # end) is that seam gone astray, not a second seam.
             continue
         kept.append(c)
     return kept

@@ -153,11 +153,19 @@ def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
     rounded corner further on). A line that leaves the image before it shows a step is no
     evidence.
     """
+    H, W = grey.shape
     nrm = np.array([-tang[1], tang[0]])
     ks = np.arange(-30.0, 80.01, 0.5)
     off = _FAR_PX + w_med / 2
-    return any(_side_crossings(grey, lut, end_pt + np.outer(ks, tang) + o * nrm, ks)
-               for o in (-off, off))
+    for o in (-off, off):
+        start = end_pt + o * nrm
+        if not (0 <= start[0] <= W - 1 and 0 <= start[1] <= H - 1):
+            continue
+        # A step needs 20 px of image after it to be seen to last.
+        room = _border_crossing(start, tang, W, H, float(ks[-1])) - 20.0
+        if any(k < room for k in _side_crossings(grey, lut, start + np.outer(ks, tang), ks)):
+            return True
+    return False
 
 
 _RESUME_REACH_PX = 260.0  # longest covered stretch looked across (a tack weld ~5-12 mm)
