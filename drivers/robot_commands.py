@@ -131,10 +131,6 @@ class MoveLinear:
                              name="move_linear target")
 
 
-#: Samples of an arc checked against the safety box (a 180 deg arc: every 11 deg).
-_ARC_SAMPLES = 16
-
-
 @dataclass(frozen=True)
 class PathTargets:
     """A weld path: TCP poses ``T_base_tcp`` (mm, wobj0), in order; uploaded, never truncated.
@@ -191,9 +187,10 @@ class PathTargets:
               near_deg: F64 | None = None) -> F64:
         """Length within ``capacity``, every point in the box and reachable; names the point.
 
-        An arc is checked too: its points (sampled) in the box, its middle reachable. Returns the
-        last point's solution (controller deg); ``near_deg`` (joints near the path's start) only
-        seeds the search.
+        An arc is checked too: the arc in the box (its end points and every point where a
+        coordinate turns, so the bulge between samples cannot slip out), its middle reachable.
+        Returns the last point's solution (controller deg); ``near_deg`` (joints near the path's
+        start) only seeds the search.
         """
         if len(self.targets) > capacity:
             raise SafetyError(f"the path has {len(self.targets)} points, the controller buffer "
@@ -209,10 +206,10 @@ class PathTargets:
             if via is not None:
                 before = self.targets[i - 1] if i > 0 else self.start
                 assert before is not None  # __post_init__ refused a circle with no start
-                arc = segment_poses(before, T, np.linspace(0, 1, _ARC_SAMPLES), via)
-                for P in arc:
-                    limits.check_point(P[:3, 3], f"the circle to {name}")
-                mid = arc[_ARC_SAMPLES // 2] @ T_tcp_flange
+                circle = circle_through(before[:3, 3], via, T[:3, 3])
+                for p in circle.point(circle.axis_extreme_fractions()):
+                    limits.check_point(p, f"the circle to {name}")
+                mid = segment_poses(before, T, [0.5], via, circle)[0] @ T_tcp_flange
                 near = solve_ik_near(irb2400(), mid, near, name=f"the circle to {name}")
             near = solve_ik_near(irb2400(), T @ T_tcp_flange, near, name=name)
         assert near is not None  # a path has a point

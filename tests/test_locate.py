@@ -170,3 +170,37 @@ def test_a_detection_stopped_short_at_the_far_end_is_caught_at_that_end():
     assert "where the seam ends" in problem
     start, end = q["endpoint_gap_mm"]
     assert start < 0.5 < QualityLimits().max_endpoint_gap_mm < end
+
+
+def _bent_view_two(bend):
+    """The straight seam with view 2's curve bent across the seam (v, the epipolar direction for
+    this baseline): the rays still meet, so the bend goes into depth, which the smoothing takes
+    out, and the smoothed seam reprojects off view 2's curve while it stays on view 1's."""
+    P = seam_curve("straight")
+    obs = observe(P, camera_poses(P))
+    px = obs[1].seam_px.copy()
+    px[:, 1] += bend(np.arange(len(px)))
+    return [obs[0], ViewObservation(obs[1].camera, obs[1].T_base_cam, px, "view2")]
+
+
+def test_a_narrow_bump_in_one_view_trips_the_reprojection_gate_on_its_maximum_alone():
+    obs = _bent_view_two(lambda s: 12.0 * np.exp(-0.5 * ((s - len(s) // 2) / 5.0) ** 2))
+    problem, q = only_problem(obs)
+    assert "reprojects" in problem
+    rms1, rms2 = q["reprojection_px_rms"]
+    mx1, mx2 = q["reprojection_px_max"]
+    assert mx1 < 1e-3 and rms1 < 1e-3  # view 1 is met: only view 2's curve is off
+    lim = QualityLimits()
+    assert rms2 < lim.max_reprojection_rms_px < lim.max_reprojection_px < mx2 < 8.0
+    assert q["ray_gap_mm_max"] < 1e-6
+    locate_seam(obs, limits=QualityLimits(max_reprojection_px=mx2))  # at the limit
+
+
+def test_a_fine_wiggle_in_one_view_trips_the_reprojection_gate_on_its_rms_alone():
+    obs = _bent_view_two(lambda s: 2.0 * np.sin(2.0 * np.pi * s / 8.0))  # 2 px, 8 samples
+    problem, q = only_problem(obs)
+    assert "reprojects" in problem
+    lim = QualityLimits()
+    rms2, mx2 = q["reprojection_px_rms"][1], q["reprojection_px_max"][1]
+    assert lim.max_reprojection_rms_px < rms2 < 1.5 and mx2 < lim.max_reprojection_px
+    locate_seam(obs, limits=QualityLimits(max_reprojection_rms_px=rms2))  # at the limit

@@ -8,7 +8,7 @@ import pytest
 
 from controller.errors import ConfigError, InputError, JointLimitError, SafetyError
 from controller.geometry.kinematics import IRB2400_LIMITS_DEG, flange_pose, irb2400
-from controller.geometry.poses import make_pose
+from controller.geometry.poses import make_pose, rotation_about
 from drivers.robot_commands import (
     MoveJoints,
     MoveLinear,
@@ -102,6 +102,21 @@ def test_speeds_must_be_positive_however_small():
             MoveJoints(np.zeros(6), bad)
 
 
+@pytest.mark.parametrize(("bad", "cause"), [("fast", ValueError), ("", ValueError),
+                                            (None, TypeError), ([50.0], TypeError)])
+def test_a_speed_that_is_not_a_number_is_refused_by_name(bad, cause):
+    # float() raises ValueError for text, TypeError for None or a list: both become the
+    # product's InputError naming the command and the value, never a bare Python error
+    for make, name in ((lambda v: MoveJoints(np.zeros(6), v), "move_joints speed"),
+                       (lambda v: MoveLinear(make_pose(t_mm=[1000.0, 0.0, 800.0]), v),
+                        "move_linear speed"),
+                       (lambda v: WeldRun(v), "weld speed")):
+        with pytest.raises(InputError, match=f"{name} must be a speed in mm/s, got") as info:
+            make(bad)
+        assert isinstance(info.value.__cause__, cause)
+    assert MoveJoints(np.zeros(6), "50").speed_mm_s == 50.0  # text of a number is a number
+
+
 J_VIEW = np.array([0.0, 10.0, 0.0, 0.0, 60.0, 0.0])
 TOOL = ToolData(make_pose(t_mm=[0.0, 0.0, 250.0]))
 
@@ -128,3 +143,69 @@ def test_every_path_point_is_checked_against_the_box():
         PathTargets(tuple(path)).check(box, TOOL, capacity=10)
     with pytest.raises(SafetyError, match="buffer holds 4"):
         PathTargets(tuple(path)).check(box, TOOL, capacity=4)
+
+
+
+# ---- a MoveC arc: the arc itself in the box, not only its three points -------------------------
+# A 170 deg circle of radius 60 mm in the tool's x-y plane at J_VIEW: tilted in the base frame,
+# starting at 129 deg, so every base coordinate turns inside the arc, 6.7-11.6 mm past all three
+# points (one side per axis: an arc under 180 deg has one turning point per coordinate).
+
+ARC_R_MM, ARC_A0, ARC_SWEEP = 60.0, np.radians(129.0), np.radians(170.0)
+ARC_CENTRE = np.array([-40.0, 25.0, 0.0])  # tool frame at J_VIEW, mm
+T_VIEW_TCP = flange_pose(irb2400(), J_VIEW) @ TOOL.T_flange_tcp
+
+
+def _on_arc(a):
+    """Base positions (N, 3) at angles ``a`` of the circle, from its own parametrisation."""
+    a = np.atleast_1d(a)
+    local = ARC_CENTRE + ARC_R_MM * np.column_stack([np.cos(a), np.sin(a), 0 * a])
+    return local @ T_VIEW_TCP[:3, :3].T + T_VIEW_TCP[:3, 3]
+
+
+def _arc():
+    """Start pose (torch turned about its z with the circle), circle point, end pose, and the
+    arc densely (200001 points: 1e-9 mm sagitta between neighbours)."""
+    def pose(a):
+        return make_pose(T_VIEW_TCP[:3, :3] @ rotation_about([0, 0, 1], a - ARC_A0), _on_arc(a)[0])
+    dense = _on_arc(ARC_A0 + np.linspace(0.0, ARC_SWEEP, 200_001))
+    return pose(ARC_A0), _on_arc(ARC_A0 + np.radians(90.0))[0], pose(ARC_A0 + ARC_SWEEP), dense
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_an_arc_bulging_past_a_face_of_the_box_is_refused_at_its_extreme(axis):
+    start, via, end, dense = _arc()
+    three = np.array([start[:3, 3], via, end[:3, 3]])
+    lo, hi = dense.min(axis=0), dense.max(axis=0)
+    side = "max" if hi[axis] - three[:, axis].max() > 1.0 else "min"  # where the bulge is
+    extreme, outward = (hi[axis], 1.0) if side == "max" else (lo[axis], -1.0)
+    assert (outward * (extreme - three[:, axis])).min() > 5.0  # past all three points
+
+    def box(face):
+        b_lo, b_hi = lo - 100.0, hi + 100.0
+        (b_hi if side == "max" else b_lo)[axis] = face
+        return SafetyLimits(tuple(b_lo), tuple(b_hi))
+
+    path = PathTargets((start, end), (None, via))
+    path.check(box(extreme + outward * 1e-3), TOOL, capacity=4)  # 1 um outside the arc: passes
+    with pytest.raises(SafetyError, match="the circle to path point 2 at .* outside"):
+        path.check(box(extreme - outward * 1e-3), TOOL, capacity=4)
+
+
+def test_the_bulge_between_sixteen_samples_of_the_arc_is_not_missed():
+    # The check used to sample the arc at 16 points: the extreme of one coordinate lies between
+    # two of them, farther out than both by more than the 0.05 mm the face is moved in.
+    start, via, end, dense = _arc()
+    sampled = _on_arc(ARC_A0 + np.linspace(0.0, ARC_SWEEP, 16))
+    gaps = np.maximum(dense.max(axis=0) - sampled.max(axis=0),
+                      sampled.min(axis=0) - dense.min(axis=0))
+    axis = int(np.argmax(gaps))
+    assert gaps[axis] > 0.1
+    lo, hi = dense.min(axis=0) - 100.0, dense.max(axis=0) + 100.0
+    if dense[:, axis].max() - sampled[:, axis].max() == gaps[axis]:
+        hi[axis] = dense[:, axis].max() - 0.05
+    else:
+        lo[axis] = dense[:, axis].min() + 0.05
+    with pytest.raises(SafetyError, match="the circle to path point 2"):
+        PathTargets((start, end), (None, via)).check(SafetyLimits(tuple(lo), tuple(hi)), TOOL,
+                                                     capacity=4)

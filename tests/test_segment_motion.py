@@ -41,6 +41,28 @@ def test_fraction_of_points_on_and_off_the_arc():
     assert np.allclose(circ.fraction_of(pts), [0.25, 0.0, 1.0])
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_the_turning_points_and_ends_bound_the_whole_arc(seed):
+    # random tilted circles, sweeps 20-250 deg: the box of the ends and the turning points is
+    # the box of the arc sampled every 0.003 deg (what the safety box check relies on)
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(-500.0, 500.0, 3)
+    r = rng.uniform(5.0, 300.0)
+    R = make_pose(rotation_about(rng.normal(size=3), rng.uniform(0.0, np.pi)))[:3, :3]
+    a0, sweep = rng.uniform(0.0, 2.0 * np.pi), np.radians(rng.uniform(20.0, 250.0))
+
+    def at(t):
+        return c + R @ (r * np.array([np.cos(t), np.sin(t), 0.0]))
+
+    circ = circle_through(at(a0), at(a0 + 0.4 * sweep), at(a0 + sweep))
+    fractions = circ.axis_extreme_fractions()
+    assert np.all((fractions >= 0.0) & (fractions <= 1.0)) and np.all(np.diff(fractions) >= 0)
+    key = circ.point(np.concatenate([[0.0, 1.0], fractions]))
+    dense = circ.point(np.linspace(0.0, 1.0, 100_001))
+    assert np.allclose(key.min(axis=0), dense.min(axis=0), atol=1e-6)
+    assert np.allclose(key.max(axis=0), dense.max(axis=0), atol=1e-6)
+
+
 def test_collinear_points_are_no_circle():
     with pytest.raises(InputError, match="use a MoveL"):
         circle_through([0, 0, 0], [1, 1, 1], [2, 2, 2.0000001])

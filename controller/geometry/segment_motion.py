@@ -92,6 +92,21 @@ class Circle:
         return np.asarray(self.centre + np.cos(a)[:, None] * u + np.sin(a)[:, None] * v,
                           dtype=np.float64)
 
+    def axis_extreme_fractions(self) -> F64:
+        """Fractions (0..1, sorted) inside the arc where a base coordinate is at a turning point.
+
+        Along the arc, coordinate k is ``c_k + u_k cos a + v_k sin a``: extreme at
+        ``a = atan2(v_k, u_k)`` (its maximum) and that plus pi (its minimum), wherever those fall
+        within the sweep. With the arc's two ends they bound the arc exactly: the box that holds
+        these points holds the whole arc (a sample of the arc may miss its bulge).
+        """
+        u = self.start - self.centre
+        v = cross3(self.normal, u)
+        top = np.arctan2(v, u)
+        angles = np.concatenate([top, top + np.pi]) % (2.0 * np.pi)
+        inside = angles[angles <= self.sweep_rad]
+        return np.asarray(np.sort(inside / self.sweep_rad), dtype=np.float64)
+
     def fraction_of(self, points_mm: ArrayLike) -> F64:
         """Fraction (0..1, clipped) of the arc nearest to each point (N, 3).
 
