@@ -170,6 +170,11 @@ def test_a_detection_stopped_short_at_the_far_end_is_caught_at_that_end():
     assert "where the seam ends" in problem
     start, end = q["endpoint_gap_mm"]
     assert start < 0.5 < QualityLimits().max_endpoint_gap_mm < end
+    # both views end at a joint end there: the end is seen (and judged by its gap), with no
+    # reason for a view not to see it, though view 1's end lies ~4 mm beyond the 3D end
+    far = q["ends"][1]
+    assert far["status"] == "seen" and far["seen_by"] == ["view1", "view2"]
+    assert far["not_seen"] == []
 
 
 def _bent_view_two(bend):

@@ -6,7 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controller.errors import ConfigError, InputError, JointLimitError, SafetyError
+from controller.errors import (
+    ConfigError,
+    InputError,
+    JointLimitError,
+    ReachabilityError,
+    SafetyError,
+)
 from controller.geometry.kinematics import IRB2400_LIMITS_DEG, flange_pose, irb2400
 from controller.geometry.poses import make_pose, rotation_about
 from drivers.robot_commands import (
@@ -48,6 +54,7 @@ def test_a_non_finite_point_is_outside_the_box(bad):
 
 def test_speed_limit_at_and_past_it():
     LIMITS.check_speed(200.0, "probe")
+    LIMITS.check_speed(0.5, "probe")  # slow is allowed: only 0 and below are refused
     for bad in (200.0 + 1e-9, 0.0, -1.0, np.nan, np.inf):
         with pytest.raises(SafetyError, match="safety limit"):
             LIMITS.check_speed(bad, "probe")
@@ -143,6 +150,8 @@ def test_every_path_point_is_checked_against_the_box():
         PathTargets(tuple(path)).check(box, TOOL, capacity=10)
     with pytest.raises(SafetyError, match="buffer holds 4"):
         PathTargets(tuple(path)).check(box, TOOL, capacity=4)
+    path[3] = T0 @ make_pose(t_mm=[0.0, 6.0, 0.0])
+    PathTargets(tuple(path)).check(box, TOOL, capacity=5)  # exactly as many as the buffer holds
 
 
 
@@ -209,3 +218,16 @@ def test_the_bulge_between_sixteen_samples_of_the_arc_is_not_missed():
     with pytest.raises(SafetyError, match="the circle to path point 2"):
         PathTargets((start, end), (None, via)).check(SafetyLimits(tuple(lo), tuple(hi)), TOOL,
                                                      capacity=4)
+
+
+def test_the_middle_of_an_arc_must_be_reachable():
+    # two ends 900 mm apart across the base's x axis, both reachable (a MoveL between them
+    # passes); the circle through a point 360 mm farther out takes the flange out of reach
+    wide = SafetyLimits((-3000.0,) * 3, (3000.0,) * 3)
+    start, end = T_VIEW_TCP.copy(), T_VIEW_TCP.copy()
+    start[1, 3] -= 450.0
+    end[1, 3] += 450.0
+    PathTargets((start, end)).check(wide, TOOL, capacity=4)
+    via = T_VIEW_TCP[:3, 3] + [360.0, 0.0, 0.0]
+    with pytest.raises(ReachabilityError, match="the circle to path point 2 at .* out of reach"):
+        PathTargets((start, end), (None, via)).check(wide, TOOL, capacity=4)

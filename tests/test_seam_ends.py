@@ -69,3 +69,23 @@ def test_an_end_cut_by_one_view_is_not_taken_from_the_other_alone():
     msg = str(info.value)
     assert "view2: the seam runs out of the image" in msg
     assert "view1: its joint end lies" in msg
+    # view 2's end kinds differ: its start is a joint end, seen by both views; only the end is not
+    start, end = info.value.details["quality"]["ends"]
+    assert start["status"] == "seen" and start["seen_by"] == ["view1", "view2"]
+    assert end["status"] == "unseen" and end["seen_by"] == [] and end["ray_gap_mm"] == 0.0
+
+
+def test_without_end_kinds_each_end_is_judged_by_its_own_last_pixel():
+    # No detector end kinds: an end is cut when its last pixel lies in the border margin. The
+    # seam starts inside both images (a joint end) and runs out of both at its far end.
+    s = np.linspace(0.0, 1.0, 5000)
+    P = CENTRE + np.column_stack([0 * s, -100.0 + 400.0 * s, 0 * s])
+    obs = observe(P, camera_poses(long_seam(half_mm=100.0)), step=2)  # looking at CENTRE
+    assert all(o.end_kinds is None for o in obs)
+    with pytest.raises(TriangulationError) as info:
+        locate_seam(obs, nominal_region=(CENTRE, 500.0))
+    start, end = info.value.details["quality"]["ends"]
+    assert start["status"] == "seen" and start["seen_by"] == ["view1", "view2"]
+    assert start["not_seen"] == [] and start["ray_gap_mm"] < 0.5
+    assert end["status"] == "unseen" and end["not_seen"] == [
+        "view1: the seam runs out of the image", "view2: the seam runs out of the image"]

@@ -41,15 +41,15 @@ def test_fraction_of_points_on_and_off_the_arc():
     assert np.allclose(circ.fraction_of(pts), [0.25, 0.0, 1.0])
 
 
-@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("seed", range(8))
 def test_the_turning_points_and_ends_bound_the_whole_arc(seed):
-    # random tilted circles, sweeps 20-250 deg: the box of the ends and the turning points is
+    # random tilted circles, sweeps 20-340 deg: the box of the ends and the turning points is
     # the box of the arc sampled every 0.003 deg (what the safety box check relies on)
     rng = np.random.default_rng(seed)
     c = rng.uniform(-500.0, 500.0, 3)
     r = rng.uniform(5.0, 300.0)
     R = make_pose(rotation_about(rng.normal(size=3), rng.uniform(0.0, np.pi)))[:3, :3]
-    a0, sweep = rng.uniform(0.0, 2.0 * np.pi), np.radians(rng.uniform(20.0, 250.0))
+    a0, sweep = rng.uniform(0.0, 2.0 * np.pi), np.radians(rng.uniform(20.0, 340.0))
 
     def at(t):
         return c + R @ (r * np.array([np.cos(t), np.sin(t), 0.0]))
@@ -61,6 +61,15 @@ def test_the_turning_points_and_ends_bound_the_whole_arc(seed):
     dense = circ.point(np.linspace(0.0, 1.0, 100_001))
     assert np.allclose(key.min(axis=0), dense.min(axis=0), atol=1e-6)
     assert np.allclose(key.max(axis=0), dense.max(axis=0), atol=1e-6)
+
+
+def test_a_turning_point_more_than_half_a_turn_into_the_arc_is_found():
+    # a 300 deg arc in the x-y plane from 100 deg: x is greatest at 360 deg, 260 deg into it
+    c, r = np.array([900.0, 50.0, 300.0]), 80.0
+    circ = circle_through(*(on_circle(c, r, np.radians(a)) for a in (100.0, 250.0, 400.0)))
+    f = circ.axis_extreme_fractions()
+    assert np.min(np.abs(f - 260.0 / 300.0)) < 1e-9
+    assert circ.point(f)[:, 0].max() == pytest.approx(c[0] + r, abs=1e-9)
 
 
 def test_collinear_points_are_no_circle():
