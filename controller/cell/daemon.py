@@ -77,6 +77,7 @@ class Daemon:
         self._server: ControlServer | None = None
         self.ready = threading.Event()
         self._ended = threading.Condition(self._lock)
+        self._cycles_ended = 0  # counted once the observers (the station's metrics) saw the end
         #: A weld path waiting for the operator (``ctl confirm`` / ``ctl reject``).
         self.confirmation = OperatorConfirmation(self._stop)
         #: Liveness for systemd's watchdog: serve-loop check-ins and bounded waits.
@@ -142,13 +143,9 @@ class Daemon:
                     "last_cycle": self.last_cycle}
 
     def wait_cycles(self, n: int, timeout_s: float) -> bool:
-        """Block until ``n`` cycles have ended (done, faulted or aborted); False on timeout."""
-        def ended() -> int:
-            c = self.counters
-            return c["cycles_done"] + c["cycles_faulted"] + c["cycles_aborted"]
-
+        """Block until ``n`` cycles have ended and the observers saw it; False on timeout."""
         with self._lock:
-            return self._ended.wait_for(lambda: ended() >= n, timeout=timeout_s)
+            return self._ended.wait_for(lambda: self._cycles_ended >= n, timeout=timeout_s)
 
     # ------------------------------------------------------------------ life cycle
     def request_stop(self, reason: str = "shutdown") -> None:
@@ -290,9 +287,9 @@ class Daemon:
                 self.last_cycle = {"job": job_name, "status": "fault",
                                    "reason": f"camera unavailable: {self.camera_state}",
                                    "record": None}
-                self._ended.notify_all()
             self._notify("cycle_end", {**self.last_cycle, "error_kind": "CameraError",
                                        "record_doc": None})
+            self._signal_ended()
             return
         assert self.calibration is not None
         cycle = WeldCycle(self.robot, self.camera, self.calibration, job,
@@ -322,11 +319,11 @@ class Daemon:
                                "reason": result.reason,
                                "record": str(result.record_path) if result.record_path else None,
                                "views": [v.name for v in job.views]}
-            self._ended.notify_all()
         self._notify("cycle_end", {**self.last_cycle,
                                    "error_kind": (type(result.error).__name__
                                                   if result.error is not None else None),
                                    "record_doc": read_record_if_any(result.record_path)})
+        self._signal_ended()
         log.info("cycle of job %s ended %s%s", job_name, result.status,
                  f": {result.reason}" if result.reason else "")
         notify(f"STATUS=last cycle {result.status}; waiting for cycle requests")
@@ -348,6 +345,12 @@ class Daemon:
             self._cycle_state = name
         self._busy(limit if limit is not None else 60.0)
         self._notify("state", {"state": name})
+
+    def _signal_ended(self) -> None:
+        # after the observers: a waiter then reads metrics that hold the cycle (a race before)
+        with self._lock:
+            self._cycles_ended += 1
+            self._ended.notify_all()
 
     def _notify(self, event: str, data: dict[str, Any]) -> None:
         for observer in list(self.observers):
