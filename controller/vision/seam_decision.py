@@ -37,10 +37,13 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
     ratio = (second.score / best.score) if second is not None else 0.0
     x0, y0 = offset
     if second is not None and ratio >= p.ambiguity_ratio:
+        what = ("two seam candidates of similar strength" if ratio <= 1.0 else
+                "a line stronger than the best seam candidate, rejected only for how it ends "
+                f"({second.why_rejected})")
         raise AmbiguousSeam(
-            f"two seam candidates of similar strength (score {best.score:.0f} vs "
-            f"{second.score:.0f}, ratio {ratio:.2f}); refusing to choose: give a --roi or a "
-            "nominal seam hint", best_px=summary_px(best, x0, y0),
+            f"{what} (score {best.score:.0f} vs {second.score:.0f}, ratio {ratio:.2f}); "
+            "refusing to choose: give a --roi or a nominal seam hint",
+            best_px=summary_px(best, x0, y0),
             second_px=summary_px(second, x0, y0), **details)
     conf, reasons = rate_confidence(best, ratio)
     if "open" in best.end_kinds or "covered" in best.end_kinds:
