@@ -16,6 +16,7 @@ from controller.vision.scipy_equivalents import CubicSpline, savgol_filter
 from controller.vision.seam_ends import end_offset, measure_tails
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import fit_at, resample, track_on
+from controller.vision.seam_shadow import split_shadow
 
 _MAX_PATCHES = 10  # covered patches (tack welds) crossed per candidate
 
@@ -33,6 +34,8 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     # profiles still see it, so follow it on at full resolution until they stop fitting.
     fit = track_on(grey, lut, fit, p, at_end=True)
     fit = track_on(grey, lut, fit, p, at_end=False)
+    # A shadow band beside the gap widens the dark band to one side: the gap is its darker core.
+    fit, c.stats = split_shadow(fit, p)
     valid = fit["valid"]
     if valid.sum() >= 8:
         # Where a mark crosses the seam at a shallow angle the two valleys merge into one wide

@@ -103,44 +103,68 @@ def _fit_profiles(x: F64, prof: F64, iterations: int) -> tuple[F64, F64]:
     area = np.sum(np.clip(base[:, None] - prof, 0, None), axis=1) * (x[1] - x[0])
     w0 = np.clip(area / np.maximum(base - F0, 1e-6), 1.0, 14.0)
     prm = np.column_stack([L0, R0, F0, c0, w0, np.full(K, 1.0)])
+    prm, cost = levenberg_marquardt(x, prof, prm, _model, _bound_two, (3, 4), iterations)
+    return prm, np.sqrt(cost / S)
+
+
+def _bound_two(prm: F64) -> F64:
+    """Keeps the two-step model's width and blur in range (in place)."""
+    prm[:, 4] = np.clip(prm[:, 4], 0.05, 40.0)
+    prm[:, 5] = np.clip(prm[:, 5], 0.2, 6.0)
+    return prm
+
+
+def levenberg_marquardt(x: F64, prof: F64, prm: F64, model: Any, bound: Any,
+                        moving: tuple[int, ...], iterations: int) -> tuple[F64, F64]:
+    """Fit ``model(x, prm) -> (value, Jacobian)`` to every profile (rows of ``prof``) at once.
+
+    ``bound(prm)`` keeps parameters in range; a profile stops once an accepted step moves the
+    parameters ``moving`` (positions, px) by under 1e-4 px. Returns (params, residual cost).
+    """
+    K = prof.shape[0]
+    n = prm.shape[1]
     lam = np.full(K, 1e-2)
-    val, J = _model(x, prm)
+    val, J = model(x, prm)
     res = prof - val
     cost = np.sum(res * res, axis=1)
     # Only profiles still moving are iterated: most have converged after a few steps, and the
     # model evaluation is most of the detector's time.
     active = np.arange(K)
+    mv = list(moving)
     for _ in range(iterations):
         Ja, ra = J[active], res[active]
         A = np.transpose(Ja, (0, 2, 1)) @ Ja
         g = np.einsum("ksp,ks->kp", Ja, ra)
         dg = np.einsum("kii->ki", A)
-        A2 = A + (lam[active, None] * (dg + 1e-9))[:, :, None] * np.eye(6)[None]
+        A2 = A + (lam[active, None] * (dg + 1e-9))[:, :, None] * np.eye(n)[None]
         try:
             step = np.linalg.solve(A2, g[:, :, None])[:, :, 0]
         except np.linalg.LinAlgError:
             break
-        new = prm[active] + step
-        new[:, 4] = np.clip(new[:, 4], 0.05, 40.0)
-        new[:, 5] = np.clip(new[:, 5], 0.2, 6.0)
-        v2, J2 = _model(x, new)
+        new = bound(prm[active] + step)
+        v2, J2 = model(x, new)
         r2 = prof[active] - v2
         c2 = np.sum(r2 * r2, axis=1)
         better = c2 < cost[active]
         idx = active[better]
         prm[idx], J[idx], res[idx], cost[idx] = new[better], J2[better], r2[better], c2[better]
         lam[active] = np.where(better, lam[active] * 0.3, lam[active] * 5.0)
-        # Converged: an accepted step that moved the centre and width by under 1e-4 px.
-        done = better & (np.abs(step[:, 3]) < 1e-4) & (np.abs(step[:, 4]) < 1e-4)
+        done = better & np.all(np.abs(step[:, mv]) < 1e-4, axis=1)
         active = active[~done]
         if active.size == 0:
             break
-    return prm, np.sqrt(cost / S)
+    return prm, cost
 
 
 def fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParams,
            half_width: float | None = None) -> dict[str, Any]:
-    """Fit the two-edge gap model to profiles across the curve at ``pts`` along normals ``nrm``."""
+    """Fit the two-edge gap model to profiles across the curve at ``pts`` along normals ``nrm``.
+
+    Per profile: ``centre`` (px), ``width`` (px), relative ``depth``, ``rms`` and ``contrast``
+    (linear radiance), ``valid``; and what :mod:`controller.vision.seam_shadow` refits: the
+    ``normal``, the model ``params`` (L, R, F, c, w, s) and the ``profiles`` (samples every
+    ``p.profile_step_px`` from -half width to +half width).
+    """
     hw = p.half_width_px if half_width is None else half_width
     x = np.arange(-hw, hw + 1e-9, p.profile_step_px)
     U = pts[:, 0:1] + nrm[:, 0:1] * x[None, :]
@@ -158,7 +182,8 @@ def fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParam
              & (w < p.max_gap_px) & (s < 4.0) & (rms < 0.35 * (side - F) + 0.004) & in_img
              & inside[:, inside.shape[1] // 2])
     return {"valid": valid, "centre": centre, "depth": depth, "width": w, "rms": rms,
-            "contrast": side - F, "left": L, "right": R}
+            "contrast": side - F, "left": L, "right": R, "normal": nrm, "params": prm,
+            "profiles": prof}
 
 
 def track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectParams,
@@ -170,7 +195,7 @@ def track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectPa
     ``chunk`` samples are good, so a seam that reaches a sheet or image border (profiles fail
     there) stops at once.
     """
-    keys = ("valid", "centre", "depth", "width", "rms", "contrast")
+    keys = ("valid", "centre", "depth", "width", "rms", "contrast", "normal", "params", "profiles")
     if not at_end:
         fit = {k: fit[k][::-1] for k in keys}
     n_steps = 0
