@@ -7,12 +7,18 @@ the profile has four levels and three edges::
 
     sheet A | B | C | sheet D        (B or C the gap floor, the other the lighter shadow)
 
-:func:`split_shadow` fits this model (all profiles at once, started from the two-step fit) to the
-profiles whose dark band is wide enough to hide a shadow, and keeps it for the seam only when the
-data ask for it along the seam: most profiles show a darker core at the *same* side of the band,
-clearly darker than the rest of the band, and the extra edge lowers the residual well beyond what
-two extra parameters fit from noise. The gap is then the darker inner band and its middle is the
-centre; the lighter band beside it is not part of the gap.
+:func:`split_shadow` fits this model (started from the two-step fit) to up to 64 profiles spread
+along the seam among those whose dark band is wide enough to hide a shadow, after a cheap screen
+(the two-step residual darker on the same half of the band along the seam), and keeps it for the
+seam only when the data ask for it: most profiles show a darker core at the *same* side of the
+band, clearly darker than the rest of the band, and the extra edge lowers the residual well beyond
+what two extra parameters fit from noise. The gap is then the darker inner band and its middle is
+the centre (the core's offset from the band's middle, smoothed and interpolated along the seam);
+the lighter band beside it is not part of the gap.
+
+What it cannot tell: a lit cut face inside a wide gap (the far sheet's edge seen through it) looks
+the same in one view, a lighter band beside a darker floor; the rule that the core is at most
+:data:`MAX_CORE_SHARE` of the band keeps most of those whole, not all (README, seam vision).
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ import numpy as np
 
 from controller.vision.scipy_equivalents import erf
 from controller.vision.seam_params import F64, DetectParams
+from controller.vision.seam_profiles import _model as two_step_model
 from controller.vision.seam_profiles import levenberg_marquardt
 
 #: Narrowest dark band (px) checked for a shadow: below it, half a shadow moves the centre by
@@ -34,32 +41,30 @@ MIN_SAME_SIDE = 0.7
 MIN_CORE_STEP = 0.08
 #: Residual drop per extra parameter over the residual variance (median F statistic).
 MIN_F = 6.0
+#: Most profiles of one seam fitted by the three-edge model.
+MAX_FITTED = 64
 #: Widest core (median share of the band) taken for a gap beside a shadow.
 MAX_CORE_SHARE = 0.4
 
 
 def _model3(x: F64, prm: F64) -> tuple[F64, F64]:
     """Three blurred steps: value (K, S) and Jacobian (K, S, 8) for (A, B, C, D, e1, e2, e3, s)."""
-    A, B, C, D, e1, e2, e3, s = (prm[:, i:i + 1] for i in range(8))
-    s = np.maximum(s, 0.15)
-    jumps = (B - A, C - B, D - C)
-    J = np.empty(np.broadcast_shapes(x.shape, A.shape) + (8,))
-    Phi = []
-    val = A + 0.0 * x
-    dss = 0.0 * val
-    for k, (e, h) in enumerate(zip((e1, e2, e3), jumps, strict=True)):
-        z = (x - e) / s
-        P = 0.5 * (1 + erf(z / np.sqrt(2)))
-        g = np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi)
-        Phi.append(P)
-        val = val + h * P
-        J[..., 4 + k] = -h * g / s
-        dss = dss - h * g * z / s
-    J[..., 0] = 1 - Phi[0]
-    J[..., 1] = Phi[0] - Phi[1]
-    J[..., 2] = Phi[1] - Phi[2]
-    J[..., 3] = Phi[2]
-    J[..., 7] = dss
+    A, B, C, D = (prm[:, i:i + 1] for i in range(4))
+    e = prm[:, 4:7].T[:, :, None]  # (3, K, 1)
+    s = np.maximum(prm[:, 7:8], 0.15)
+    h = np.stack([B - A, C - B, D - C])  # the three steps, (3, K, 1)
+    z = (x[None, None, :] - e) / s  # (3, K, S); one erf call for the three edges
+    P = 0.5 * (1 + erf(z / np.sqrt(2)))
+    g = np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi)
+    val = A + np.sum(h * P, axis=0)
+    J = np.empty(val.shape + (8,))
+    J[..., 0] = 1 - P[0]
+    J[..., 1] = P[0] - P[1]
+    J[..., 2] = P[1] - P[2]
+    J[..., 3] = P[2]
+    hg = h * g / s
+    J[..., 4:7] = -np.moveaxis(hg, 0, -1)
+    J[..., 7] = -np.sum(hg * z, axis=0)
     return val, J
 
 
@@ -101,8 +106,8 @@ def split_shadow(fit: dict[str, Any], p: DetectParams) -> tuple[dict[str, Any], 
     """``fit`` (from :func:`~controller.vision.seam_profiles.fit_at`), the gap told from a shadow.
 
     When the seam is lopsided (module doc) the centres and widths of its wide profiles become
-    those of the darker core; a profile whose own three-edge fit fails is moved by the seam's
-    median core offset relative to its band width. Otherwise ``fit`` is returned unchanged.
+    those of the darker core (measured on up to :data:`MAX_FITTED` of them, smoothed and
+    interpolated along the seam). Otherwise ``fit`` is returned unchanged.
     Also returns what was measured (for the record): the share of wide profiles, the share with
     the core on the majority side, the median core step and F statistic, and whether it split.
     """
@@ -114,25 +119,39 @@ def split_shadow(fit: dict[str, Any], p: DetectParams) -> tuple[dict[str, Any], 
     if n_wide < 8 or n_wide < 0.3 * valid.sum():
         return fit, stats
     idx = np.flatnonzero(wide)
-    prof = fit["profiles"][idx]
+    # Both tests on at most MAX_FITTED profiles spread along the seam: a shadow changes slowly
+    # along it, and the three-edge fit costs as much as the two-step one.
+    sub = np.unique(np.linspace(0, len(idx) - 1, min(len(idx), MAX_FITTED)).round().astype(int))
+    prof = fit["profiles"][idx[sub]]
     S = prof.shape[1]
     hw = (S - 1) * p.profile_step_px / 2
     x = np.linspace(-hw, hw, S)
     two_w = two[idx]
-    three, cost3 = fit_three(x, prof, two_w.copy(), p.fit_iterations)
-    cost2 = fit["rms"][idx] ** 2 * S
+    two_s = two_w[sub]
+    # Cheap screen first: a core at one side leaves the two-step fit too bright on that half of
+    # the band and too dark on the other, on the same side along the seam.
+    res = prof - two_step_model(x, two_s)[0]
+    c2, w2 = two_s[:, 3:4], two_s[:, 4:5]
+    half_l = (x[None, :] > c2 - w2 / 2) & (x[None, :] < c2)
+    half_r = (x[None, :] > c2) & (x[None, :] < c2 + w2 / 2)
+    darker_l = (np.sum(res * half_l, axis=1) / np.maximum(half_l.sum(axis=1), 1)
+                < np.sum(res * half_r, axis=1) / np.maximum(half_r.sum(axis=1), 1))
+    stats["shadow_screen"] = float(max(darker_l.mean(), 1 - darker_l.mean()))
+    if stats["shadow_screen"] < MIN_SAME_SIDE:
+        return fit, stats
+    three, cost3 = fit_three(x, prof, two_s.copy(), p.fit_iterations)
+    cost2 = fit["rms"][idx[sub]] ** 2 * S
     A, B, C, D, e1, e2, e3, _ = three.T
     core_left = B < C
     dark, light = np.minimum(B, C), np.maximum(B, C)
     sheet = np.where(core_left, A, D)  # the core's own sheet: the other one is beyond the shadow
     step = (light - dark) / np.maximum(sheet - dark, 1e-6)
     F_stat = (cost2 - cost3) / 2 / np.maximum(cost3 / max(S - 8, 1), 1e-12)
-    side = 1 if np.mean(core_left) >= 0.5 else -1
-    same = core_left if side == 1 else ~core_left
+    same = core_left if np.mean(core_left) >= 0.5 else ~core_left
     core_lo = np.where(core_left, e1, e2)
     core_hi = np.where(core_left, e2, e3)
     core_c, core_w = (core_lo + core_hi) / 2, core_hi - core_lo
-    band_c, band_w = two_w[:, 3], two_w[:, 4]
+    band_c, band_w = two_s[:, 3], two_s[:, 4]
     ok = same & (step > 0.5 * MIN_CORE_STEP) & (core_w > 0.4) & (np.abs(core_c - band_c)
                                                                    < band_w / 2)
     stats["shadow_same_side"] = float(same.mean())
@@ -143,14 +162,25 @@ def split_shadow(fit: dict[str, Any], p: DetectParams) -> tuple[dict[str, Any], 
             or stats["shadow_f"] < MIN_F or stats["shadow_core_share"] > MAX_CORE_SHARE
             or ok.sum() < 4):
         return fit, stats
-    rel_off = float(np.median((core_c[ok] - band_c[ok]) / band_w[ok]))
-    rel_w = stats["shadow_core_share"]
-    new_c = np.where(ok, core_c, band_c + rel_off * band_w)
-    new_w = np.where(ok, core_w, rel_w * band_w)
+    # The core's offset from the band's middle and its width, along the seam: a running median
+    # over the fitted profiles (one fit may catch a texture streak), linear between them.
+    k = sub[ok]
+    off = _running_median(core_c[ok] - band_c[ok], 5)
+    wid = _running_median(core_w[ok], 5)
+    at = np.arange(len(idx))
+    shift = np.interp(at, k, off)
+    new_w = np.interp(at, k, wid)
     out = dict(fit)
     out["centre"] = fit["centre"].copy()
     out["width"] = fit["width"].copy()
-    out["centre"][idx] = fit["centre"][idx] + fit["normal"][idx] * (new_c - band_c)[:, None]
+    out["centre"][idx] = fit["centre"][idx] + fit["normal"][idx] * shift[:, None]
     out["width"][idx] = new_w
     stats["shadow_split"] = 1.0
     return out, stats
+
+
+def _running_median(v: F64, n: int) -> F64:
+    """Median of each sample and its neighbours over ``n`` (odd) samples, the ends repeated."""
+    h = n // 2
+    padded = np.pad(v, h, mode="edge")
+    return np.asarray(np.median(np.lib.stride_tricks.sliding_window_view(padded, n), axis=1))
