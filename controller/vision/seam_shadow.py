@@ -26,6 +26,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from controller.vision.scipy_equivalents import erf
 from controller.vision.seam_params import F64, DetectParams
@@ -40,7 +41,7 @@ MIN_SAME_SIDE = 0.7
 #: The core's step below the rest of the band, relative to the sheet-to-core contrast (median).
 MIN_CORE_STEP = 0.08
 #: Residual drop per extra parameter over the residual variance (median F statistic).
-MIN_F = 6.0
+MIN_F = 4.0
 #: Most profiles of one seam fitted by the three-edge model.
 MAX_FITTED = 64
 #: Widest core (median share of the band) taken for a gap beside a shadow.
@@ -140,20 +141,13 @@ def split_shadow(fit: dict[str, Any], p: DetectParams) -> tuple[dict[str, Any], 
     if stats["shadow_screen"] < MIN_SAME_SIDE:
         return fit, stats
     three, cost3 = fit_three(x, prof, two_s.copy(), p.fit_iterations)
+    core_left, core_c, core_w, step = _cores(three)
     cost2 = fit["rms"][idx[sub]] ** 2 * S
-    A, B, C, D, e1, e2, e3, _ = three.T
-    core_left = B < C
-    dark, light = np.minimum(B, C), np.maximum(B, C)
-    sheet = np.where(core_left, A, D)  # the core's own sheet: the other one is beyond the shadow
-    step = (light - dark) / np.maximum(sheet - dark, 1e-6)
     F_stat = (cost2 - cost3) / 2 / np.maximum(cost3 / max(S - 8, 1), 1e-12)
-    same = core_left if np.mean(core_left) >= 0.5 else ~core_left
-    core_lo = np.where(core_left, e1, e2)
-    core_hi = np.where(core_left, e2, e3)
-    core_c, core_w = (core_lo + core_hi) / 2, core_hi - core_lo
+    side_left = bool(np.mean(core_left) >= 0.5)
+    same = core_left == side_left
     band_c, band_w = two_s[:, 3], two_s[:, 4]
-    ok = same & (step > 0.5 * MIN_CORE_STEP) & (core_w > 0.4) & (np.abs(core_c - band_c)
-                                                                   < band_w / 2)
+    ok = same & _plausible(core_c, core_w, step, band_c, band_w)
     stats["shadow_same_side"] = float(same.mean())
     stats["shadow_core_step"] = float(np.median(step[same])) if same.any() else 0.0
     stats["shadow_f"] = float(np.median(F_stat[same])) if same.any() else 0.0
@@ -162,14 +156,22 @@ def split_shadow(fit: dict[str, Any], p: DetectParams) -> tuple[dict[str, Any], 
             or stats["shadow_f"] < MIN_F or stats["shadow_core_share"] > MAX_CORE_SHARE
             or ok.sum() < 4):
         return fit, stats
-    # The core's offset from the band's middle and its width, along the seam: a running median
-    # over the fitted profiles (one fit may catch a texture streak), linear between them.
+    # The seam is lopsided: every wide profile gets its own core; where that fit fails, the
+    # core's offset from the band's middle and its width are interpolated along the seam (a
+    # running median over the fitted profiles: one fit may catch a texture streak).
     k = sub[ok]
-    off = _running_median(core_c[ok] - band_c[ok], 5)
-    wid = _running_median(core_w[ok], 5)
     at = np.arange(len(idx))
-    shift = np.interp(at, k, off)
-    new_w = np.interp(at, k, wid)
+    shift = np.interp(at, k, _running_median(core_c[ok] - band_c[ok], 5))
+    new_w = np.interp(at, k, _running_median(core_w[ok], 5))
+    shift[k], new_w[k] = core_c[ok] - band_c[ok], core_w[ok]
+    rest = np.setdiff1d(at, sub)
+    if rest.size:
+        two_r = two_w[rest]
+        cl, cc, cw, st = _cores(fit_three(x, fit["profiles"][idx[rest]], two_r.copy(),
+                                          p.fit_iterations)[0])
+        good = (cl == side_left) & _plausible(cc, cw, st, two_r[:, 3], two_r[:, 4])
+        shift[rest[good]] = cc[good] - two_r[good, 3]
+        new_w[rest[good]] = cw[good]
     out = dict(fit)
     out["centre"] = fit["centre"].copy()
     out["width"] = fit["width"].copy()
@@ -177,6 +179,26 @@ def split_shadow(fit: dict[str, Any], p: DetectParams) -> tuple[dict[str, Any], 
     out["width"][idx] = new_w
     stats["shadow_split"] = 1.0
     return out, stats
+
+
+def _cores(three: F64) -> tuple[NDArray[np.bool_], F64, F64, F64]:
+    """Per three-edge fit: the core (darker inner band) on the left?, its centre, width (px), step.
+
+    The step is the core's depth below the other inner band relative to the core's own sheet.
+    """
+    A, B, C, D, e1, e2, e3, _ = three.T
+    left = B < C
+    dark = np.minimum(B, C)
+    sheet = np.where(left, A, D)  # the core's own sheet: the other one is beyond the shadow
+    step = (np.maximum(B, C) - dark) / np.maximum(sheet - dark, 1e-6)
+    lo, hi = np.where(left, e1, e2), np.where(left, e2, e3)
+    return left, (lo + hi) / 2, hi - lo, step
+
+
+def _plausible(core_c: F64, core_w: F64, step: F64, band_c: F64, band_w: F64) -> NDArray[np.bool_]:
+    """Cores that are a gap: clearly darker, not vanishing, inside the two-step band."""
+    return np.asarray((step > 0.5 * MIN_CORE_STEP) & (core_w > 0.4)
+                      & (np.abs(core_c - band_c) < band_w / 2))
 
 
 def _running_median(v: F64, n: int) -> F64:
