@@ -35,7 +35,8 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     fit = track_on(grey, lut, fit, p, at_end=True)
     fit = track_on(grey, lut, fit, p, at_end=False)
     # A shadow band beside the gap widens the dark band to one side: the gap is its darker core.
-    fit, c.stats = split_shadow(fit, p)
+    fit, shadow = split_shadow(fit, p)
+    c.stats.update(shadow)
     valid = fit["valid"]
     if valid.sum() >= 8:
         # Where a mark crosses the seam at a shallow angle the two valleys merge into one wide
