@@ -1,10 +1,12 @@
+import re
+
 import numpy as np
 import pytest
 from stereo_scenes import CENTRE, camera_poses, observe, seam_curve
 
 from controller.errors import InputError, TriangulationError
 from controller.geometry.poses import make_pose, rotation_about
-from controller.stereo.locate import QualityLimits, ViewObservation, locate_seam
+from controller.stereo.locate import QualityLimits, ViewObservation, _judge, locate_seam
 from controller.stereo.triangulate import PolylineDistance
 
 
@@ -64,12 +66,40 @@ def test_seam_along_the_baseline_is_reported_as_degenerate_with_a_fix():
     assert "across the seam" in str(info.value)
 
 
+@pytest.mark.parametrize("kind", ["straight", "arc", "s_curve", "nonplanar"])
+def test_exact_curves_reach_both_true_ends(kind):
+    # Both views hold the seam's true end points (3001 samples, every 3rd): the located seam must
+    # end there, not one reference sample (about 0.25 mm) short.
+    P = seam_curve(kind, n=3001)
+    obs = observe(P, camera_poses(P), step=3)
+    assert all(np.allclose(o.camera.project(P[[0, -1]], o.T_base_cam), o.seam_px[[0, -1]])
+               for o in obs)
+    seam = locate_seam(obs)
+    for a, b in (seam.dense_points_mm[[0, -1]], seam.points_mm[[0, -1]]):
+        gap = min(max(np.linalg.norm(a - P[0]), np.linalg.norm(b - P[-1])),
+                  max(np.linalg.norm(a - P[-1]), np.linalg.norm(b - P[0])))  # either direction
+        assert gap < 0.05, gap
+    assert max(seam.quality["endpoint_gap_mm"]) < 0.05
+
+
 def test_partly_degenerate_seam_is_flagged():
     # an arc whose middle runs along the baseline direction
     P = seam_curve("arc")
     obs = observe(P, camera_poses(P, along=np.array([0, 1.0, 0])))
-    with pytest.raises(TriangulationError, match="epipolar"):
+    with pytest.raises(TriangulationError, match="epipolar") as info:
         locate_seam(obs, limits=QualityLimits(max_degenerate_fraction=0.02))
+    msg = str(info.value)
+    assert "nan" not in msg.lower(), msg
+    # The hint: the baseline runs along y (along the middle of the arc); it should run across
+    # the seam there, along x.
+    hint = re.search(r"runs along \[([^\]]+)\] \(across the seam\)", msg)
+    assert hint is not None, msg
+    fix = np.array([float(v) for v in hint.group(1).split(",")])
+    assert abs(abs(fix[0]) - 1.0) < 0.05 and np.linalg.norm(fix[1:]) < 0.1, fix
+    # With the default degenerate limit the same views are refused with a reason, never a crash
+    # on a seam curve of NaN (the spline through the degenerate gap).
+    with pytest.raises(TriangulationError, match="quality checks"):
+        locate_seam(obs)
 
 
 def test_wrong_pose_of_one_view_is_caught_by_end_point_gap():
@@ -209,3 +239,21 @@ def test_a_fine_wiggle_in_one_view_trips_the_reprojection_gate_on_its_rms_alone(
     rms2, mx2 = q["reprojection_px_rms"][1], q["reprojection_px_max"][1]
     assert lim.max_reprojection_rms_px < rms2 < 1.5 and mx2 < lim.max_reprojection_px
     locate_seam(obs, limits=QualityLimits(max_reprojection_rms_px=rms2))  # at the limit
+
+
+def test_degenerate_hint_without_a_direction_gives_none():
+    # A degenerate stretch of one sample has no tangent: the reason keeps its advice but names
+    # no direction (never [nan, nan, nan] nor [0.0, 0.0, 0.0]).
+    P = seam_curve("straight")
+    obs = observe(P, camera_poses(P))
+    dense = P[::100]
+    q = {"coverage": 1.0, "degenerate_fraction": 0.5, "angle_deg_min": 30.0,
+         "ray_gap_mm_max": 0.0, "reprojection_px_rms": [0.0], "reprojection_px_max": [0.0],
+         "endpoint_gap_mm": [0.0], "ends": [], "length_mm": 180.0}
+    degenerate = np.zeros(len(dense), dtype=bool)
+    degenerate[3] = True
+    with pytest.raises(TriangulationError) as info:
+        _judge(q, QualityLimits(), degenerate, dense, np.arange(len(dense), dtype=float), 0, obs,
+               {})
+    msg = str(info.value)
+    assert "runs across the seam" in msg and "runs along [" not in msg, msg

@@ -59,12 +59,15 @@ def epipolar_lines(xy_ref: F64, T_other_ref: F64) -> F64:
 
 
 def match_curves(xy_ref: F64, xy_other: F64, T_other_ref: F64,
-                 min_angle_deg: float = 8.0, along_tol: float = 4e-4) -> CurveMatch:
+                 min_angle_deg: float = 8.0, along_tol: float = 4e-4,
+                 end_tol: float = 1e-9) -> CurveMatch:
     """Match reference curve samples (N, 2) to an ordered polyline (M, 2) in another view.
 
     Both inputs are normalised undistorted coordinates of ordered polylines. A sample whose
     epipolar line runs within ``along_tol`` (normalised units, about 1 px) of a stretch of the
     other curve longer than ``tan(min_angle_deg)``-worth is degenerate even without a crossing.
+    A line within ``end_tol`` (normalised units; rounding, not a tolerance on the data) of an end
+    vertex of the other curve meets it there.
     Returns a :class:`CurveMatch` of length N.
     """
     n = len(xy_ref)
@@ -79,6 +82,17 @@ def match_curves(xy_ref: F64, xy_other: F64, T_other_ref: F64,
     f0, f1 = f[rows, segs], f[rows, segs + 1]
     frac = f0 / (f0 - f1)
     t_all = segs + frac
+    # A line through an end vertex of the other curve, rounding off to the side the curve lies on,
+    # shows no sign change: the reference curve's end sample (where both views see the seam end)
+    # was left unmatched and every 3D seam ended one sample short. Such a line touches the end.
+    last = len(xy_other) - 1
+    ends = [(np.flatnonzero((np.abs(f[:, k]) <= end_tol) & ~cross[:, seg]), k, seg)
+            for k, seg in ((0, 0), (last, last - 1))]
+    rows = np.concatenate([rows] + [r for r, _, _ in ends])
+    segs = np.concatenate([segs] + [np.full(len(r), seg) for r, _, seg in ends])
+    t_all = np.concatenate([t_all] + [np.full(len(r), float(k)) for r, k, _ in ends])
+    order = np.lexsort((t_all, rows))  # grouped by sample, as _resolve_crossings expects
+    rows, segs, t_all = rows[order], segs[order], t_all[order]
     # crossing angle: between the line direction (-b, a) and the segment direction
     sin_angle = np.abs(np.einsum("ij,ij->i", lines[rows, :2], seg_unit[segs]))
     angle_all = np.degrees(np.arcsin(np.clip(sin_angle, 0.0, 1.0)))

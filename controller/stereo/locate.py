@@ -222,15 +222,17 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
         i0, i1 = max(runs, key=lambda r: r[1] - r[0]) if runs else (first, first + 1)
         a = min(max(i0 - first, 0), len(dense) - 1)
         b = min(max(i1 - 1 - first, 0), len(dense) - 1)
-        tangent = dense[b] - dense[a]
-        view_dir = views[1].T_base_cam[:3, 2]
-        fix = np.cross(tangent, view_dir)
-        fix = fix / (np.linalg.norm(fix) or 1.0)
+        fix = np.cross(dense[b] - dense[a], views[1].T_base_cam[:3, 2])
+        norm = float(np.linalg.norm(fix))
+        # No direction from a stretch too short to have one (a single sample): no hint then.
+        hint = (f": move view 2 so that the baseline between the cameras runs along "
+                f"{(fix / norm).round(2).tolist()} (across the seam)"
+                if np.isfinite(norm) and norm > 1e-6 else
+                ": move view 2 so that the baseline between the cameras runs across the seam")
         problems.append(
             f"{q['degenerate_fraction']:.0%} of the seam runs along the epipolar lines between "
             f"the first two views (from {dense[a].round(1).tolist()} to "
-            f"{dense[b].round(1).tolist()} mm): move view 2 so that the baseline between the "
-            f"cameras runs along {fix.round(2).tolist()} (across the seam)")
+            f"{dense[b].round(1).tolist()} mm){hint}")
     if q["angle_deg_min"] < lim.min_angle_deg:
         problems.append(f"the views see the seam from too similar directions: triangulation "
                         f"angle {q['angle_deg_min']:.1f} deg < {lim.min_angle_deg} deg")

@@ -36,12 +36,14 @@ def smooth_curve(param: F64, points: F64, knot_spacing: float = 30.0) -> F64:
     inner = np.linspace(p[0], p[-1], n_inner + 2)[1:-1]
     t = np.concatenate([[p[0]] * (k + 1), inner, [p[-1]] * (k + 1)])
     try:
-        spl = make_lsq_spline(p, X, t, k=k)
+        out = np.asarray(make_lsq_spline(p, X, t, k=k)(p))
     except (ValueError, np.linalg.LinAlgError):
+        out = np.full_like(X, np.nan)
+    if not np.all(np.isfinite(out)):
         # Schoenberg-Whitney fails where samples are missing between knots (degenerate gaps):
-        # fall back to fewer knots.
+        # older scipy raised, scipy 1.17 returns NaN. Fall back to fewer knots.
         return smooth_curve(p, X, knot_spacing * 2) if n_inner > 1 else _polyfit_smooth(p, X)
-    return np.asarray(spl(p))
+    return out
 
 
 def _polyfit_smooth(p: F64, X: F64) -> F64:
