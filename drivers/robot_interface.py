@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from controller.errors import RobotFault
 from controller.geometry.poses import Pose
+from drivers.robot_commands import SafetyLimits
 
 F64 = NDArray[np.float64]
 
@@ -85,6 +86,9 @@ class Robot(abc.ABC):
     """
 
     mock: Any = None
+    #: What every motion command is checked against before a byte is sent (workspace box of the
+    #: TCP, speed). A weld cycle sets its job's limits here before its first motion.
+    limits: SafetyLimits
 
     @abc.abstractmethod
     def open(self) -> None:

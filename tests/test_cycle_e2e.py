@@ -141,9 +141,24 @@ def test_no_seam_in_a_real_photograph(tmp_path):
         reason = {"SeamNotFound": "seam", "AmbiguousSeam": "two seam candidates"}
         assert type(result.error).__name__ in reason, result.reason
         assert_safe_fault(rig, result, reason[type(result.error).__name__])
+        assert result.reason.startswith("view1: "), result.reason  # both views: the first named
         if type(result.error).__name__ == "SeamNotFound":
             assert ("no weld seam found" in result.reason
                     or "best seam candidate too weak" in result.reason), result.reason
+
+
+def test_no_seam_in_view_two_names_view_two(tmp_path):
+    rng = np.random.default_rng(11)
+
+    def plain(n, im):  # the second view sees bare, noisy metal: no joint at all
+        return im if n == 1 else np.clip(128 + rng.normal(0, 6, im.shape), 0, 255).astype(im.dtype)
+
+    with SimRig(speedup=200.0) as rig:
+        result = rig.cycle(tmp_path, camera=ReplacingCamera(rig.camera, plain)).run()
+        assert type(result.error).__name__ == "SeamNotFound", result.reason
+        assert result.reason.startswith("view2: "), result.reason
+        assert_safe_fault(rig, result, "view2: ")
+        assert read_record(result.record_path)["details"]["view"] == "view2"
 
 
 def test_ambiguous_seam(tmp_path):
@@ -155,6 +170,7 @@ def test_ambiguous_seam(tmp_path):
     with SimRig(speedup=200.0) as rig:
         result = rig.cycle(tmp_path, camera=ReplacingCamera(rig.camera, doubled)).run()
         assert type(result.error).__name__ == "AmbiguousSeam", result.reason
+        assert result.reason.startswith("view1: "), result.reason
         assert_safe_fault(rig, result, "two seam candidates of similar strength")
 
 
@@ -171,11 +187,25 @@ def test_unreachable_path(tmp_path):
     import dataclasses
 
     with SimRig(speedup=200.0) as rig:
-        lim = dataclasses.replace(rig.job.limits, workspace_max_mm=(1600.0, 900.0, 300.0))
+        # The job's box ends 60 mm above the seam: the views (and the safe pose) are inside it,
+        # the weld path is not; the planner refuses it before anything is sent for welding.
+        z = rig.job.seam.nominal_centre_mm[2] + 60.0
+        lim = dataclasses.replace(rig.job.limits, workspace_min_mm=(300.0, -900.0, z))
         job = dataclasses.replace(rig.job, limits=lim)
-        result = rig.cycle(tmp_path, job=job).run()
-        assert type(result.error).__name__ == "ReachabilityError"
+        result = rig.cycle(tmp_path / "path", job=job).run()
+        assert type(result.error).__name__ == "ReachabilityError", result.reason
         assert_safe_fault(rig, result, "workspace")
+        # A box the views leave (they look from 540-890 mm, the box ends at 300 mm): the robot,
+        # holding the job's limits, refuses the first view move; nothing moves, not even to the
+        # safe pose (outside the box too).
+        moves = len(rig.mock.executed)
+        lim = dataclasses.replace(rig.job.limits, workspace_max_mm=(1600.0, 900.0, 300.0))
+        result = rig.cycle(tmp_path / "views", job=dataclasses.replace(rig.job, limits=lim)).run()
+        assert type(result.error).__name__ == "SafetyError", result.reason
+        assert "outside the safety workspace box" in result.reason and "300.0] mm" in \
+            result.reason, result.reason
+        assert_safe_fault(rig, result, "move_joints target", safe_pose=False)
+        assert len(rig.mock.executed) == moves
 
 
 class WeldStarted:

@@ -345,3 +345,40 @@ def test_watchdog_keeps_pinging_through_a_long_state_of_a_cycle(tmp_path, monkey
         assert send_request(sock, {"cmd": "status"})["awaiting_confirmation"] is not None
         send_request(sock, {"cmd": "reject"})
         assert d.wait_cycles(1, 60)
+
+
+def test_each_cycle_moves_within_its_own_jobs_box(tmp_path):
+    """The daemon's robot checks every motion of a cycle against that cycle's job limits: a
+    view outside the job's box is refused before a motion byte is sent (the robot's own default
+    box, +-1800 mm, would let it through), and the next job's cycle gets its own limits."""
+    cfg_path = make_cell(tmp_path / "cell")
+    folder = cfg_path.parent
+    demo = (folder / "demo-job.toml").read_text()
+    tight_box = "workspace_max_mm = [1600.0, 900.0, 500.0]"  # the views look from z 540-890 mm
+    (folder / "tight-job.toml").write_text(
+        demo.replace('name = "demo"', 'name = "tight"')
+        .replace("workspace_max_mm = [1600.0, 900.0, 1500.0]", tight_box))
+    cfg_path.write_text(cfg_path.read_text().replace(
+        'demo = "demo-job.toml"', 'demo = "demo-job.toml"\ntight = "tight-job.toml"'))
+    motion_codes = {"SV", "MJ", "MT", "ML", "XT", "XP", "XO", "PN", "RW"}
+    with serving(cfg_path) as (d, cfg):
+        sent: list[str] = []
+        request = d.robot.link.request
+        d.robot.link.request = lambda body, *a, **k: (sent.append(body.split()[0]),
+                                                     request(body, *a, **k))[1]
+        mock = d.robot.mock
+        assert send_request(cfg.control.socket, {"cmd": "start", "job": "tight"})["ok"]
+        assert d.wait_cycles(1, 120)
+        last = d.status()["last_cycle"]
+        assert last["status"] == "fault", last
+        assert last["reason"].startswith("move_joints target (TCP) at"), last
+        assert "outside the safety workspace box [300.0, -900.0, -100.0] .. " \
+               "[1600.0, 900.0, 500.0] mm" in last["reason"], last
+        assert read_record(last["record"])["details"]["error"] == "SafetyError"
+        assert not motion_codes & set(sent), sent  # not one motion request left the controller
+        assert mock.executed == [] and not any(a.startswith("start") for a in mock.action_log)
+        # the next cycle, of the demo job, moves in the demo job's box (z up to 1500 mm)
+        assert send_request(cfg.control.socket, {"cmd": "start", "job": "demo"})["ok"]
+        assert d.wait_cycles(2, 120)
+        assert d.status()["last_cycle"]["status"] == "done", d.status()["last_cycle"]
+        assert d.robot.limits.workspace_max_mm == (1600.0, 900.0, 1500.0)

@@ -64,3 +64,32 @@ def test_locate_on_a_cycle_record_gives_the_seam_and_path_the_cycle_welded(tmp_p
     assert [t["kind"] for t in replay["weld_path"]] == [t["kind"] for t in welded["weld_path"]]
     assert np.allclose([t["position_mm"] for t in replay["weld_path"]],
                        [t["position_mm"] for t in welded["weld_path"]], atol=1e-3)
+
+
+def test_a_view_whose_detection_fails_is_named_first_in_the_reason():
+    from controller.cell.guidance import ViewInput, detect_views
+    from controller.errors import AmbiguousSeam, SeamNotFound
+
+    cam = default_camera()
+    T = make_pose(np.eye(3), [0.0, 0.0, 0.0])
+    good, bad = np.zeros((4, 4), np.uint8), np.ones((4, 4), np.uint8)
+    views = [ViewInput("left-top", good, cam, T), ViewInput("view2", bad, cam, T)]
+
+    def detector(error):
+        def detect(image, camera=None, roi=None):
+            if image is bad:
+                raise error
+            return "found"
+        return detect
+
+    with pytest.raises(SeamNotFound) as info:
+        detect_views(views, GuidanceSettings(), detector(SeamNotFound(
+            "no weld seam found in the image (no thin dark valley long enough)", score=0.2)))
+    assert str(info.value).startswith("view2: no weld seam found in the image"), info.value
+    assert info.value.details == {"score": 0.2, "view": "view2"}
+    with pytest.raises(AmbiguousSeam, match=r"^view2: two seam candidates"):
+        detect_views(views, GuidanceSettings(), detector(AmbiguousSeam("two seam candidates")))
+    views.reverse()  # the first view in order is named, whatever its name
+    with pytest.raises(SeamNotFound, match=r"^view2: "):
+        detect_views(views, GuidanceSettings(), detector(SeamNotFound("no weld seam")))
+    assert detect_views([views[1]], GuidanceSettings(), detector(SeamNotFound("x"))) == ["found"]

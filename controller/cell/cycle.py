@@ -52,7 +52,6 @@ log = logging.getLogger(__name__)
 #: Joint tolerance (deg) between a commanded view pose and the joints read back after the move.
 ARRIVAL_TOLERANCE_DEG = 0.05
 
-
 Confirmer = Callable[[WeldPath, float], bool]
 
 
@@ -117,7 +116,6 @@ class WeldCycle:
         build_machine(self)
 
     # ------------------------------------------------------------------ machine callbacks
-
     @functools.cached_property
     def settings(self) -> GuidanceSettings:
         """The pipeline settings of the job (read when the cycle first locates)."""
@@ -182,6 +180,8 @@ class WeldCycle:
             for cam, calib in self.calibrations.items():
                 name = "calibration.yaml" if cam == DEFAULT_CAMERA else f"calibration_{cam}.yaml"
                 save_calibration(self.record, calib, name)
+        # Every motion of the cycle (views, weld path and its arcs, safe pose): the job's limits.
+        self.robot.limits = self.job.safety_limits()
         try:
             self._view_cams = resolve_view_cameras(self.job, self.calibrations)
             self._groups = capture_groups(self._view_cams)

@@ -44,7 +44,12 @@ STATE_TIMEOUTS = {"moving_to_view": "move_s", "capturing": "capture_s", "locatin
 
 
 def open_cell_robot(cfg: CellConfig) -> Any:
-    """The cell's robot (not yet opened)."""
+    """The cell's robot (not yet opened).
+
+    It is opened with the driver's default safety limits; each cycle sets its job's limits
+    (box, speed) on it before its first motion (:meth:`WeldCycle.run`). The daemon itself never
+    moves the robot outside a cycle.
+    """
     from drivers.robot import open_robot
 
     return open_robot(cfg.robot.url, timeout_s=cfg.robot.timeout_s)

@@ -214,12 +214,9 @@ class SimRig:
 
     def __enter__(self) -> SimRig:
         from drivers.cameras import open_camera
-        from drivers.robot import SafetyLimits, open_robot
+        from drivers.robot import open_robot
 
-        lim = self.job.limits
-        self.robot = open_robot(self.robot_url, limits=SafetyLimits(
-            workspace_min_mm=lim.workspace_min_mm, workspace_max_mm=lim.workspace_max_mm,
-            max_speed_mm_s=lim.max_speed_mm_s))
+        self.robot = open_robot(self.robot_url, limits=self.job.safety_limits())
         self.robot.open()
         if self.fixed is not None:
             from drivers.camera_sync import CameraSet

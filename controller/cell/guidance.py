@@ -135,7 +135,7 @@ def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
     """The seam in each view (in view order), inside the nominal region's box when there is one.
 
     Two views at a time (:func:`detect_seams`), each with its own camera model. Raises what the
-    detector raises (seam not found, ambiguous seam).
+    detector raises (seam not found, ambiguous seam), the message starting with the view's name.
     """
     from controller.vision.seam_detect import detect_seams
 
@@ -143,7 +143,7 @@ def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
     rois = [nominal_roi(v.camera, v.T_base_cam, *region) if region is not None else None
             for v in views]
     return detect_seams([v.image for v in views], camera=[v.camera for v in views], rois=rois,
-                        detector=detector)
+                        detector=detector, names=[v.name for v in views])
 
 
 def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,

@@ -25,6 +25,7 @@ from controller.jsonio import atomic_write_text
 from controller.path.path_fit import PathTolerance
 from controller.path.weld_path import WeldParams, WorkspaceBox
 from controller.stereo.locate import QualityLimits
+from drivers.robot_commands import SafetyLimits
 
 
 @dataclass(frozen=True)
@@ -210,6 +211,13 @@ class Job:
     def workspace(self) -> WorkspaceBox:
         """The workspace box of the limits."""
         return WorkspaceBox(self.limits.workspace_min_mm, self.limits.workspace_max_mm)
+
+    def safety_limits(self) -> SafetyLimits:
+        """The robot's safety limits for this job: the TCP box (base frame, mm) and max speed."""
+        lim = self.limits
+        return SafetyLimits(workspace_min_mm=lim.workspace_min_mm,
+                            workspace_max_mm=lim.workspace_max_mm,
+                            max_speed_mm_s=lim.max_speed_mm_s)
 
 
 def load_job(path: str | os.PathLike[str]) -> Job:

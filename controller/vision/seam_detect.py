@@ -49,7 +49,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controller.errors import InputError, SeamNotFound
+from controller.errors import InputError, SeamguideError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
 from controller.vision.seam_coarse import (
@@ -246,26 +246,49 @@ def _check_roi(roi: Any, W: int, H: int) -> tuple[int, int, int, int]:
 def detect_seams(images: list[NDArray[Any]], *,
                  camera: CameraModel | Sequence[CameraModel] | None = None,
                  rois: list[tuple[int, int, int, int] | None] | None = None,
-                 detector: Any = None) -> list[SeamDetection]:
+                 detector: Any = None,
+                 names: Sequence[str] | None = None) -> list[SeamDetection]:
     """:func:`detect_seam` on several views at once, one thread per view (at most 2 at a time).
 
     NumPy and OpenCV release the GIL for most of the work, so two views take about 0.6-0.8 of
     the time of one after the other on two cores. Results are in the order of ``images``; the
     first view's error (in that order) is raised. ``camera`` is one model for every view or one
     per view (cameras with different lenses). ``detector`` replaces :func:`detect_seam` (same
-    keyword arguments ``camera`` and ``roi``), e.g. in tests.
+    keyword arguments ``camera`` and ``roi``), e.g. in tests. With ``names`` (one per view), a
+    view's error is raised as the same error type whose message starts with ``NAME: `` and whose
+    details hold ``view=NAME``.
     """
     from concurrent.futures import ThreadPoolExecutor
 
     fn = detect_seam if detector is None else detector
     rois = rois if rois is not None else [None] * len(images)
     cams = (list(camera) if isinstance(camera, Sequence) else [camera] * len(images))
-    if len(rois) != len(images) or len(cams) != len(images):
-        raise InputError(f"detect_seams: {len(images)} images but {len(rois)} regions of interest "
-                         f"and {len(cams)} cameras")
-    jobs = list(zip(images, cams, rois, strict=True))
+    if len(rois) != len(images) or len(cams) != len(images) or \
+            (names is not None and len(names) != len(images)):
+        raise InputError(f"detect_seams: {len(images)} images but {len(rois)} regions of interest, "
+                         f"{len(cams)} cameras and {len(names or images)} names")
+
+    def one(i: int) -> SeamDetection:
+        try:
+            return fn(images[i], camera=cams[i], roi=rois[i])  # type: ignore[no-any-return]
+        except SeamguideError as err:
+            if names is None:
+                raise
+            raise named_error(err, names[i]) from err
+
     if len(images) < 2:
-        return [fn(im, camera=c, roi=r) for im, c, r in jobs]
+        return [one(i) for i in range(len(images))]
     with ThreadPoolExecutor(max_workers=2) as ex:
-        futures = [ex.submit(fn, im, camera=c, roi=r) for im, c, r in jobs]
+        futures = [ex.submit(one, i) for i in range(len(images))]
         return [f.result() for f in futures]
+
+
+def named_error(err: SeamguideError, name: str) -> SeamguideError:
+    """``err`` as the same error type, its message starting with ``NAME: `` (details + view)."""
+    msg = str(err)
+    if msg.startswith(f"{name}:"):
+        return err
+    try:
+        return type(err)(f"{name}: {msg}", **{**err.details, "view": name})
+    except TypeError:  # an error type with its own constructor: keep it as it is
+        return err
