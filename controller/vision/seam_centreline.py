@@ -213,8 +213,11 @@ def _trim_rims(ok: NDArray[np.bool_], hole: int, rim: int) -> NDArray[np.bool_]:
 
     The last profiles before a tack weld or a spatter ball see its rim (and a crater can look
     like the gap beside the line): fits there pull the centreline off by pixels, millimetres
-    once triangulated. The centreline is bridged across the wider hole instead. The run's own
-    first and last samples are kept (their ends are measured separately).
+    once triangulated. The centreline is bridged across the wider hole instead. What is left
+    of an island between a patch and the run's first or last sample (shorter than ``rim``) is
+    the patch's far rim and is dropped too: the run then ends before the patch, and that end
+    is judged like any other. ``ok`` is returned unchanged when fewer than 4 samples would
+    remain.
     """
     out = ok.copy()
     m = np.concatenate([[1], ok.astype(np.int8), [1]])

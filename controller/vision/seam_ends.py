@@ -190,8 +190,7 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
     a tack weld or a spatter ball has the same joint beyond it. Returns the measured centres of
     the longest such run (M, 2) px, in order away from the end.
     """
-    from controller.vision.seam_params import DetectParams  # the defaults, not a caller's tuning
-    p = DetectParams()
+    p = DetectParams()  # the defaults: what a gap profile is does not depend on a caller's tuning
     reach = min(_RESUME_REACH_PX, room_px - 6.0)
     if reach < 12.0 + _RESUME_RUN_PX:
         return None
