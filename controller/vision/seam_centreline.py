@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from controller.vision.scipy_equivalents import CubicSpline, savgol_filter
 from controller.vision.seam_ends import end_offset, measure_tails
-from controller.vision.seam_params import F64, Candidate, DetectParams
+from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
 from controller.vision.seam_profiles import fit_at, resample, track_on
 from controller.vision.seam_shadow import split_shadow
 
@@ -194,9 +194,7 @@ def _bridge_long_holes(t: F64, pts: F64, ok: NDArray[np.bool_], long: int,
     and averages the noise of the samples next to the hole.
     """
     out = pts.copy()
-    m = np.concatenate([[1], ok.astype(np.int8), [1]])
-    for a, b in zip(np.flatnonzero(np.diff(m) == -1), np.flatnonzero(np.diff(m) == 1),
-                    strict=True):
+    for a, b in runs_of(~ok):
         if b - a < long or a == 0 or b == len(ok):
             continue
         near = ok & (t >= t[a] - reach) & (t < t[b - 1] + reach + 1)
@@ -220,20 +218,16 @@ def _trim_rims(ok: NDArray[np.bool_], hole: int, rim: int) -> NDArray[np.bool_]:
     remain.
     """
     out = ok.copy()
-    m = np.concatenate([[1], ok.astype(np.int8), [1]])
-    st, en = np.flatnonzero(np.diff(m) == -1), np.flatnonzero(np.diff(m) == 1)
-    for a, b in zip(st, en, strict=True):
+    for a, b in runs_of(~ok):
         if b - a >= hole:
             out[max(a - rim, 0):a] = False
             out[b:b + rim] = False
     # What is left of an island between a patch and the run's end is the patch's far rim.
-    m = np.concatenate([[0], out.astype(np.int8), [0]])
-    ist, ien = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
-    if len(ist) > 1:
-        if ien[0] - ist[0] < rim:
-            out[ist[0]:ien[0]] = False
-        if ien[-1] - ist[-1] < rim:
-            out[ist[-1]:ien[-1]] = False
+    islands = runs_of(out)
+    if len(islands) > 1:
+        for a, b in (islands[0], islands[-1]):
+            if b - a < rim:
+                out[a:b] = False
     if out.sum() < 4:
         return ok
     return out
@@ -248,9 +242,7 @@ def _longest_bridged_run(valid: NDArray[np.bool_], bridge: int, min_island: int,
     (a long hole is bridged only when the seam is clearly seen on both sides of it).
     """
     short = max(1, bridge // 6) if bridge_short is None else bridge_short
-    m = np.concatenate([[0], valid.astype(np.int8), [0]])
-    st, en = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
-    islands = [(int(a), int(b)) for a, b in zip(st, en, strict=True) if b - a >= min_island]
+    islands = [(a, b) for a, b in runs_of(valid) if b - a >= min_island]
     if not islands:
         return None
     runs = [list(islands[0])]

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.errors import AmbiguousSeam, SeamNotFound
-from controller.vision.seam_params import F64, Candidate, DetectParams
+from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
 
 JOINT_END = "joint_end"
 IMAGE_BORDER = "image_border"
@@ -134,11 +134,8 @@ def spans_of(pts: F64, mask: NDArray[np.bool_]) -> list[tuple[float, float]]:
     Each run is widened to the neighbouring seen points (the gap was last seen there).
     """
     s = arc_length(pts)
-    m = np.concatenate([[0], mask.astype(np.int8), [0]])
-    st = np.flatnonzero(np.diff(m) == 1).tolist()
-    en = np.flatnonzero(np.diff(m) == -1).tolist()
     out: list[tuple[float, float]] = []
-    for a, b in zip(st, en, strict=True):
+    for a, b in runs_of(mask):
         lo, hi = float(s[max(a - 1, 0)]), float(s[min(b, len(s) - 1)])
         if out and lo <= out[-1][1]:
             out[-1] = (out[-1][0], hi)  # two runs around one seen point: one patch

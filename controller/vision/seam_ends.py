@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_params import F64, DetectParams
+from controller.vision.seam_params import F64, DetectParams, runs_of
 from controller.vision.seam_profiles import bilinear, fit_at
 
 _MIN_STEP = 0.25  # relative brightness step that marks a sheet border
@@ -219,18 +219,17 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
     centres = fit["centre"].reshape(len(dirs), len(ks), 2)
     best: tuple[int, F64] | None = None
     for row, cen in zip(ok, centres, strict=True):
-        m = np.concatenate([[0], row.astype(np.int8), [0]])
-        st, en = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
-        if st.size == 0:
+        runs = runs_of(row)
+        if not runs:
             continue
-        j = int(np.argmax(en - st))
-        n = int(en[j] - st[j])
+        a, b = max(runs, key=lambda r: r[1] - r[0])
+        n = b - a
         # A gap seen again up to the image border needs less length: there is no more to see.
-        to_edge = (reach < _RESUME_REACH_PX and en[-1] == len(ks)
-                   and (en[-1] - st[-1]) * p.step_px >= 16)
-        if to_edge and n < need:
-            j, n = len(st) - 1, need
-        run = cen[st[j]:en[j]]
+        la, lb = runs[-1]
+        if (reach < _RESUME_REACH_PX and lb == len(ks) and (lb - la) * p.step_px >= 16
+                and n < need):
+            (a, b), n = runs[-1], need
+        run = cen[a:b]
         if n >= need and (best is None or n > best[0]) and _continues(run, end_pt, tang):
             best = (n, run)
     return None if best is None else np.asarray(best[1])

@@ -17,6 +17,17 @@ from numpy.typing import NDArray
 F64 = NDArray[np.float64]
 
 
+def runs_of(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """The runs of set samples of a 1-D ``mask``: ``[(start, end), ...]``, ``end`` exclusive.
+
+    The runs of ``~mask`` are its holes (including those touching either end).
+    """
+    m = np.concatenate([[0], np.asarray(mask).astype(np.int8), [0]])
+    d = np.diff(m)
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(),
+                    strict=True))
+
+
 @dataclass(frozen=True)
 class DetectParams:
     """Tuning of :func:`detect_seam` (pixel values at full resolution unless named ``coarse``).

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.vision.seam_ends import _border_crossing, end_offset
-from controller.vision.seam_params import F64, Candidate, DetectParams
+from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
 from controller.vision.seam_profiles import bilinear, fit_at, resample
 from controller.vision.seam_track import ValleyPath, find_paths, robust_line
 from controller.vision.seam_valley import main_directions, shrink, valley_response, work_factor
@@ -180,10 +180,8 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
 
 def _drop_short_runs(mask: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
     """``mask`` without its runs of set samples shorter than ``n``."""
-    m = np.concatenate([[0], mask.astype(np.int8), [0]])
     out = mask.copy()
-    for a, b in zip(np.flatnonzero(np.diff(m) == 1).tolist(),
-                    np.flatnonzero(np.diff(m) == -1).tolist(), strict=True):
+    for a, b in runs_of(mask):
         if b - a < n:
             out[a:b] = False
     return out
