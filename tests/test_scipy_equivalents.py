@@ -1,4 +1,4 @@
-"""The numpy versions of savgol_filter, CubicSpline and erf give scipy's numbers."""
+"""The numpy versions of savgol_filter, CubicSpline, erf and norm.cdf / pdf give scipy's numbers."""
 
 from __future__ import annotations
 
@@ -7,8 +7,9 @@ import pytest
 import scipy.interpolate
 import scipy.signal
 import scipy.special
+import scipy.stats
 
-from controller.vision.scipy_equivalents import CubicSpline, erf, savgol_filter
+from controller.vision.scipy_equivalents import CubicSpline, erf, norm_cdf_pdf, savgol_filter
 
 
 def test_erf_is_scipys():
@@ -17,6 +18,20 @@ def test_erf_is_scipys():
                         [0.0, 1.0, -1.0, 8.0, -8.0, 27.0, -40.0, 1e-300]])
     assert np.allclose(erf(x), scipy.special.erf(x), rtol=1e-15, atol=1e-300)
     assert erf(np.zeros((3, 4))).shape == (3, 4)
+
+
+def test_norm_cdf_pdf_is_scipys_to_1e7():
+    rng = np.random.default_rng(1)
+    z = np.concatenate([rng.uniform(-12, 12, 20000), rng.uniform(-1.5, 1.5, 20000),
+                        [0.0, -0.0, 1.0, -1.0, 40.0, -40.0]])
+    P, g = norm_cdf_pdf(z)
+    assert np.abs(P - scipy.stats.norm.cdf(z)).max() < 1e-7
+    assert np.allclose(g, scipy.stats.norm.pdf(z), rtol=1e-14, atol=1e-300)
+    # The CDF is monotone and its two halves add up to one (the models' steps are symmetric).
+    zs = np.sort(z)
+    assert np.all(np.diff(norm_cdf_pdf(zs)[0]) >= 0)
+    assert np.abs(norm_cdf_pdf(z)[0] + norm_cdf_pdf(-z)[0] - 1).max() < 1e-8
+    assert norm_cdf_pdf(np.zeros((3, 4)))[0].shape == (3, 4)
 
 
 @pytest.mark.parametrize("n,window,order", [(5, 5, 2), (9, 7, 2), (40, 13, 2), (200, 29, 2),

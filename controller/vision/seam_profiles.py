@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.scipy_equivalents import erf
+from controller.vision.scipy_equivalents import norm_cdf_pdf
 from controller.vision.seam_params import F64, DetectParams
 
 
@@ -72,10 +72,8 @@ def _model(x: F64, prm: F64) -> tuple[F64, F64]:
     s = np.maximum(s, 0.15)
     z1 = (-(x - c) - w / 2) / s
     z2 = ((x - c) - w / 2) / s
-    P1 = 0.5 * (1 + erf(z1 / np.sqrt(2)))
-    P2 = 0.5 * (1 + erf(z2 / np.sqrt(2)))
-    g1 = np.exp(-0.5 * z1 * z1) / np.sqrt(2 * np.pi)
-    g2 = np.exp(-0.5 * z2 * z2) / np.sqrt(2 * np.pi)
+    P1, g1 = norm_cdf_pdf(z1)
+    P2, g2 = norm_cdf_pdf(z2)
     val = F + (L - F) * P1 + (R - F) * P2
     J = np.empty(val.shape + (6,))
     J[..., 0] = P1

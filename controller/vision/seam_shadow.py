@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.scipy_equivalents import erf
+from controller.vision.scipy_equivalents import norm_cdf_pdf
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_profiles import _model as two_step_model
 from controller.vision.seam_profiles import levenberg_marquardt
@@ -55,8 +55,7 @@ def _model3(x: F64, prm: F64) -> tuple[F64, F64]:
     s = np.maximum(prm[:, 7:8], 0.15)
     h = np.stack([B - A, C - B, D - C])  # the three steps, (3, K, 1)
     z = (x[None, None, :] - e) / s  # (3, K, S); one erf call for the three edges
-    P = 0.5 * (1 + erf(z / np.sqrt(2)))
-    g = np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi)
+    P, g = norm_cdf_pdf(z)
     val = A + np.sum(h * P, axis=0)
     J = np.empty(val.shape + (8,))
     J[..., 0] = 1 - P[0]
