@@ -225,7 +225,8 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
     if keep and len(rest):
         sub = [dirs[i] for i in keep]
         o, c = _resume_fit(grey, lut, end_pt, sub, ks[rest], w_med, sides, p)
-        ok[np.ix_(keep, rest)], centres[np.ix_(keep, rest)] = o, c
+        rows = np.array(keep, dtype=np.intp)
+        ok[np.ix_(rows, rest)], centres[np.ix_(rows, rest)] = o, c
     ok[[i for i in range(len(dirs)) if i not in keep]] = False
     best: tuple[int, F64] | None = None
     for row, cen in zip(ok, centres, strict=True):
