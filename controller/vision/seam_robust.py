@@ -30,6 +30,7 @@ MIN_DEPTH = 0.3  # median relative valley depth along a path for it to be a gap
 MIN_RESP = 0.15  # valley response that counts as a valley on a clean image
 MIN_SEEN = 0.4  # share of a path where the gap is measured at full resolution
 MIN_SUPPORT = 0.65  # share of a path with a valley for it to be a gap (the rest covered)
+END_COVER_PX = 100.0  # longest unseen stretch at an end carried on to it (a tack weld there)
 
 
 def robust_candidates(grey: NDArray[np.uint8], lut: F64, p: DetectParams, max_paths: int = 3,
@@ -124,6 +125,14 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     centre = _bridge(pts + nrm * off[:, None], kept, max(8, int(round(200.0 / p.step_px))))
     seen = kept
     width = np.where(lm_ok, fit["width"], w_est)
+    lo, hi = _trim_at_sheet_borders(grey, lut, centre, kept, float(np.median(width[kept])), p)
+    if hi - lo < len(centre):
+        # The path's valley support counts on the part kept (the table beyond is no gap).
+        resp = path.resp[_near(raw, centre[lo:hi], 3.0 * f)]
+        sup = sup[_near(raw, centre[lo:hi], 3.0 * f)]
+    else:
+        resp = path.resp
+    centre, seen, width = centre[lo:hi], seen[lo:hi], width[lo:hi]
     w_med = float(np.median(width[seen]))
     kinds: list[str] = []
     for first in (True, False):
@@ -147,7 +156,7 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     c.points = centre
     c.width = width
     c.bridged = ~seen
-    c.depth = float(np.median(path.resp[sup])) if sup.any() else 0.0
+    c.depth = float(np.median(resp[sup])) if sup.any() else 0.0
     # For the confidence: the share of the path where the working image shows a valley (a
     # covered stretch is not a reason to doubt the seam; a path mostly through nothing is).
     c.valid_frac = float(sup.mean())
@@ -176,6 +185,43 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
         c.why_rejected = (f"valley path of {c.length_px:.0f} px: the gap is seen on only "
                           f"{100 * sup.mean():.0f} % of it")
     return c
+
+
+def _trim_at_sheet_borders(grey: NDArray[np.uint8], lut: F64, centre: F64,
+                           kept: NDArray[np.bool_], w_med: float,
+                           p: DetectParams) -> tuple[int, int]:
+    """The samples of ``centre`` (px) to keep, ``[lo, hi)``: cut where the seen gap meets a border.
+
+    A path through the whole image runs on to the image border; where the gap was last seen
+    more than ``END_COVER_PX`` before it and the sheets are seen to end right there (a sheet
+    border across the seam, :func:`controller.vision.seam_ends.end_offset`), what follows is
+    the table (a dark table carries the valley on), not a covered stretch of the joint. A long
+    unseen stretch between sheets that go on (a ragged or covered gap) is kept.
+    """
+    idx = np.flatnonzero(kept)
+    lo, hi = 0, len(kept)
+    for first in (True, False):
+        i = int(idx[0]) if first else int(idx[-1])
+        unseen = i if first else len(kept) - 1 - i
+        if unseen * p.step_px <= END_COVER_PX:
+            continue
+        j = int(idx[min(5, len(idx) - 1)]) if first else int(idx[max(0, len(idx) - 6)])
+        tang = centre[i] - centre[j]
+        tang /= np.linalg.norm(tang) + 1e-12
+        _, kind, _ = end_offset(grey, lut, centre[i], tang, w_med)
+        if kind == "sheet border":
+            if first:
+                lo = i
+            else:
+                hi = i + 1
+    return lo, hi
+
+
+def _near(pts: F64, poly: F64, tol: float) -> NDArray[np.bool_]:
+    """Per point of ``pts`` (px): within ``tol`` px of the polyline ``poly``'s points."""
+    d = np.linalg.norm(pts[:, None, :] - poly[None, ::2, :], axis=2).min(axis=1)
+    return np.asarray(d <= tol + float(np.linalg.norm(np.diff(poly[::2], axis=0), axis=1).max(
+        initial=0.0)))
 
 
 def _drop_short_runs(mask: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
