@@ -73,20 +73,20 @@ def test_a_wide_ragged_gap_under_tack_welds_is_bridged_and_reported_occluded():
 
 
 def test_a_gap_ending_at_a_dark_table_is_not_carried_across_it_to_the_image_border():
-    # The sheets end at y = 620; below, a table as dark as the gap: the whole-image valley path
+    # The sheets end at y = 720; below, a table as dark as the gap: the whole-image valley path
     # runs on across it (no valley there, bridged straight), but the joint ends at the sheets.
     img, xx, yy, xc = _sheets()
     truth_x = _ragged_gap(img, xx, yy, xc, width=18.0)
     _blob(img, xx, yy, float(np.interp(250.0, np.arange(900), truth_x)), 250.0, 45.0)
-    table = yy >= 620
+    table = yy >= 720
     img[table] = 30.0 + np.random.default_rng(5).normal(0, 4, int(table.sum()))
     det = detect_seam(np.clip(img, 0, 255).astype(np.uint8))
     assert det.stats["way"] == "valley path"
     ends = det.endpoints_px[np.argsort(det.endpoints_px[:, 1])]
     assert list(det.end_kinds) == (["image_border", "joint_end"] if det.points_px[0, 1] < 450
                                    else ["joint_end", "image_border"])
-    assert ends[0, 1] < 5 and abs(ends[1, 1] - 620.0) < 3.0
-    assert abs(ends[1, 0] - np.interp(619.0, np.arange(900), truth_x)) < 3.0
+    assert ends[0, 1] < 5 and abs(ends[1, 1] - 720.0) < 3.0
+    assert abs(ends[1, 0] - np.interp(719.0, np.arange(900), truth_x)) < 3.0
 
 
 def test_a_dark_line_that_fades_out_inside_the_sheet_is_never_returned():

@@ -126,13 +126,9 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     seen = kept
     width = np.where(lm_ok, fit["width"], w_est)
     lo, hi = _trim_at_sheet_borders(grey, lut, centre, kept, float(np.median(width[kept])), p)
-    if hi - lo < len(centre):
-        # The path's valley support counts on the part kept (the table beyond is no gap).
-        resp = path.resp[_near(raw, centre[lo:hi], 3.0 * f)]
-        sup = sup[_near(raw, centre[lo:hi], 3.0 * f)]
-    else:
-        resp = path.resp
-    centre, seen, width = centre[lo:hi], seen[lo:hi], width[lo:hi]
+    if (hi - lo) * p.step_px >= p.min_length_px:
+        # (Cut shorter than a seam, it is judged as a whole, as it was found.)
+        centre, seen, width = centre[lo:hi], seen[lo:hi], width[lo:hi]
     w_med = float(np.median(width[seen]))
     kinds: list[str] = []
     for first in (True, False):
@@ -156,7 +152,7 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     c.points = centre
     c.width = width
     c.bridged = ~seen
-    c.depth = float(np.median(resp[sup])) if sup.any() else 0.0
+    c.depth = float(np.median(path.resp[sup])) if sup.any() else 0.0
     # For the confidence: the share of the path where the working image shows a valley (a
     # covered stretch is not a reason to doubt the seam; a path mostly through nothing is).
     c.valid_frac = float(sup.mean())
@@ -215,13 +211,6 @@ def _trim_at_sheet_borders(grey: NDArray[np.uint8], lut: F64, centre: F64,
             else:
                 hi = i + 1
     return lo, hi
-
-
-def _near(pts: F64, poly: F64, tol: float) -> NDArray[np.bool_]:
-    """Per point of ``pts`` (px): within ``tol`` px of the polyline ``poly``'s points."""
-    d = np.linalg.norm(pts[:, None, :] - poly[None, ::2, :], axis=2).min(axis=1)
-    return np.asarray(d <= tol + float(np.linalg.norm(np.diff(poly[::2], axis=0), axis=1).max(
-        initial=0.0)))
 
 
 def _drop_short_runs(mask: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
