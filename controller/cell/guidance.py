@@ -32,6 +32,8 @@ from controller.path.path_fit import PathTolerance, fit_segments
 from controller.path.weld_path import WeldParams, WeldPath, WorkspaceBox, plan_weld
 from controller.stereo.locate import QualityLimits, Seam3D, ViewObservation, locate_seam
 from controller.stereo.view_geometry import nominal_normal_from_views, view_layout_warning
+from controller.vision.seam_params import DetectParams
+from controller.vision.seam_scale import DEFAULT_GAP_MM, params_for_scale, px_per_mm_at
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +61,9 @@ class GuidanceSettings:
     ``nominal_centre_mm`` + ``nominal_radius_mm`` (base frame, mm): where the seam must be (also
     the detectors' region of interest); ``normal``: out of the part (None: from the views);
     ``path_tolerance``: how closely the segments sent to the controller follow the path;
-    ``clip_unseen_ends``: an end no view saw is cut at the nominal region (the job allows it).
+    ``clip_unseen_ends``: an end no view saw is cut at the nominal region (the job allows it);
+    ``gap_mm``: the expected gap (narrowest, widest, mm) that, with each view's working distance
+    to the nominal centre, sets the detector's pixel scales (:func:`view_params`).
     """
 
     quality: QualityLimits = QualityLimits()
@@ -72,6 +76,7 @@ class GuidanceSettings:
     workspace: WorkspaceBox = WorkspaceBox()
     path_tolerance: PathTolerance = field(default_factory=PathTolerance)
     clip_unseen_ends: bool = False
+    gap_mm: tuple[float, float] = DEFAULT_GAP_MM
 
     @property
     def nominal_region(self) -> tuple[F64, float] | None:
@@ -89,7 +94,7 @@ def settings_from_job(job: Job) -> GuidanceSettings:
                             nominal_radius_mm=s.nominal_radius_mm, normal=s.normal,
                             weld=job.weld_params(), workspace=job.workspace(),
                             path_tolerance=job.path_tolerance(),
-                            clip_unseen_ends=s.clip_unseen_ends)
+                            clip_unseen_ends=s.clip_unseen_ends, gap_mm=s.gap_mm)
 
 
 @dataclass
@@ -130,20 +135,44 @@ def nominal_roi(camera: CameraModel, T_base_cam: Pose, centre_mm: F64,
     return int(x0), int(y0), int(x1), int(y1)
 
 
+def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSettings,
+                roi: tuple[int, int, int, int] | None = None) -> DetectParams | None:
+    """The detector's parameters for one view, scaled to its working distance; None: defaults.
+
+    The scale is ``fx / Z`` px per mm, ``Z`` (mm) the nominal seam centre's depth in front of
+    the camera at ``T_base_cam`` (base frame, mm); the seam's expected length in the image is
+    the nominal sphere's diameter at that scale, at most the diagonal of ``roi`` (or of the
+    image). None without a nominal region or when its centre is not in front of the camera.
+    """
+    region = settings.nominal_region
+    if region is None:
+        return None
+    centre, radius = region
+    s = px_per_mm_at(float(camera.K[0, 0]), T_base_cam, centre)
+    if s is None:
+        return None
+    x0, y0, x1, y1 = roi if roi is not None else (0, 0, camera.width, camera.height)
+    length = min(2.0 * radius * s, float(np.hypot(x1 - x0, y1 - y0)))
+    return params_for_scale(s, settings.gap_mm, seam_length_px=length)
+
+
 def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
                  detector: Detector | None = None) -> list[Any]:
     """The seam in each view (in view order), inside the nominal region's box when there is one.
 
-    Two views at a time (:func:`detect_seams`), each with its own camera model. Raises what the
-    detector raises (seam not found, ambiguous seam), the message starting with the view's name.
+    Two views at a time (:func:`detect_seams`), each with its own camera model and the pixel
+    scales of its working distance (:func:`view_params`). Raises what the detector raises (seam
+    not found, ambiguous seam), the message starting with the view's name.
     """
     from controller.vision.seam_detect import detect_seams
 
     region = settings.nominal_region
     rois = [nominal_roi(v.camera, v.T_base_cam, *region) if region is not None else None
             for v in views]
+    params = [view_params(v.camera, v.T_base_cam, settings, roi)
+              for v, roi in zip(views, rois, strict=True)]
     return detect_seams([v.image for v in views], camera=[v.camera for v in views], rois=rois,
-                        detector=detector, names=[v.name for v in views])
+                        detector=detector, names=[v.name for v in views], params=params)
 
 
 def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,

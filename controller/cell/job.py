@@ -18,13 +18,14 @@ import numpy as np
 import tomli_w
 
 from controller.cell.typed_config import from_dict, load_toml
-from controller.errors import ConfigError, SeamguideError
+from controller.errors import ConfigError, InputError, SeamguideError
 from controller.geometry.kinematics import check_joint_limits, irb2400
 from controller.geometry.poses import make_pose, quat_wxyz_to_matrix
 from controller.jsonio import atomic_write_text
 from controller.path.path_fit import PathTolerance
 from controller.path.weld_path import WeldParams, WorkspaceBox
 from controller.stereo.locate import QualityLimits
+from controller.vision.seam_scale import DEFAULT_GAP_MM, check_gap_mm
 from drivers.robot_commands import SafetyLimits
 
 
@@ -68,11 +69,18 @@ class SeamSpec:
     #: Where no view sees an end of the seam (it runs out of the images), weld what the views see
     #: inside the nominal region instead of refusing the seam (default: refuse).
     clip_unseen_ends: bool = False
+    #: The narrowest and the widest gap expected between the sheets (mm): with the working
+    #: distance, sets the detector's pixel scales (controller.vision.seam_scale).
+    gap_mm: tuple[float, float] = DEFAULT_GAP_MM
 
     def __post_init__(self) -> None:
         if self.nominal_radius_mm <= 0:
             raise ConfigError(f"seam.nominal_radius_mm must be positive, got "
                               f"{self.nominal_radius_mm}")
+        try:
+            check_gap_mm(self.gap_mm, "seam.gap_mm")
+        except InputError as err:
+            raise ConfigError(str(err)) from err
         if self.normal is not None and np.linalg.norm(self.normal) < 1e-9:
             raise ConfigError("seam.normal must be a non-zero vector (out of the part)")
 

@@ -30,6 +30,13 @@ def register(sub: Any) -> None:
     p.add_argument("--gamma", type=float, default=2.2,
                    help="camera response to linearise grey levels (1 for a linear camera; "
                    "default 2.2)")
+    p.add_argument("--distance-mm", type=float, metavar="Z",
+                   help="working distance (mm, camera to the seam along the optical axis; needs "
+                   "--calibration): sets the detector's pixel scales from fx / Z px per mm "
+                   "(without it: the defaults, tuned for about 6-8 px per mm)")
+    p.add_argument("--gap-mm", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="with --distance-mm: the narrowest and widest expected gap, mm "
+                   "(default 0.1 2.0)")
     p.set_defaults(func=run)
 
 
@@ -61,8 +68,9 @@ def run(args: argparse.Namespace) -> int:
     image = load_image(args.image, camera=camera)
     if args.gamma <= 0:
         raise InputError(f"--gamma {args.gamma}: must be positive")
+    params = _scaled(DetectParams(gamma=args.gamma), args, camera)
     try:
-        det = detect_seam(image, camera=camera, roi=roi, params=DetectParams(gamma=args.gamma))
+        det = detect_seam(image, camera=camera, roi=roi, params=params)
     except (SeamNotFound, AmbiguousSeam) as err:
         if args.overlay:
             _write_png(args.overlay, draw_overlay(image, None, f"NO SEAM: {err}"))
@@ -74,6 +82,28 @@ def run(args: argparse.Namespace) -> int:
     emit_json(doc, args.output)
     log.info("seam: %d points, confidence %.2f", len(det.points_px), det.confidence)
     return 0
+
+
+def _scaled(params: Any, args: argparse.Namespace, camera: Any) -> Any:
+    """``params`` with the pixel scales of ``--distance-mm`` (and ``--gap-mm``), if given."""
+    from controller.vision.seam_scale import DEFAULT_GAP_MM, check_gap_mm, params_for_scale
+
+    if args.distance_mm is None:
+        if args.gap_mm is not None:
+            raise InputError("--gap-mm sets the scales with --distance-mm: give --distance-mm Z "
+                             "(and --calibration) too, or leave --gap-mm out")
+        return params
+    if camera is None:
+        raise InputError(f"--distance-mm {args.distance_mm:g}: give --calibration too (its fx "
+                         "turns the distance into px per mm)")
+    if not args.distance_mm > 0 or args.distance_mm == float("inf"):
+        raise InputError(f"--distance-mm {args.distance_mm}: give the working distance in mm, a "
+                         "positive number")
+    gap = check_gap_mm(args.gap_mm if args.gap_mm is not None else DEFAULT_GAP_MM, "--gap-mm")
+    px_per_mm = float(camera.K[0, 0]) / args.distance_mm
+    log.info("scales for %.2f px/mm (fx %.1f px at %.1f mm), gap %g-%g mm", px_per_mm,
+             float(camera.K[0, 0]), args.distance_mm, *gap)
+    return params_for_scale(px_per_mm, gap, base=params)
 
 
 def _write_png(path: str, img: Any) -> None:

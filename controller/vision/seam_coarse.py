@@ -26,7 +26,8 @@ def coarse_candidates(grey: NDArray[np.uint8], lut: F64,
                       p: DetectParams) -> tuple[list[Candidate], int]:
     """Candidates in ``grey`` (strongest first) and how many long valley blobs were seen."""
     H, W = grey.shape
-    f = p.coarse_factor or max(1, min(6, int(round(W / 560))))
+    f = p.coarse_factor or max(1, min(6, int(round(W / 560))),
+                               int(np.ceil(p.valley_r_px / p.valley_r_coarse)))
     small = grey if f == 1 else cv2.resize(grey, (W // f, H // f), interpolation=cv2.INTER_AREA)
     # No smoothing: a thin gap is at most a pixel wide here and blurring halves its depth.
     img = lut.astype(np.float32)[small]

@@ -247,7 +247,8 @@ def detect_seams(images: list[NDArray[Any]], *,
                  camera: CameraModel | Sequence[CameraModel] | None = None,
                  rois: list[tuple[int, int, int, int] | None] | None = None,
                  detector: Any = None,
-                 names: Sequence[str] | None = None) -> list[SeamDetection]:
+                 names: Sequence[str] | None = None,
+                 params: Sequence[DetectParams | None] | None = None) -> list[SeamDetection]:
     """:func:`detect_seam` on several views at once, one thread per view (at most 2 at a time).
 
     NumPy and OpenCV release the GIL for most of the work, so two views take about 0.6-0.8 of
@@ -256,21 +257,25 @@ def detect_seams(images: list[NDArray[Any]], *,
     per view (cameras with different lenses). ``detector`` replaces :func:`detect_seam` (same
     keyword arguments ``camera`` and ``roi``), e.g. in tests. With ``names`` (one per view), a
     view's error is raised as the same error type whose message starts with ``NAME: `` and whose
-    details hold ``view=NAME``.
+    details hold ``view=NAME``. ``params``: one :class:`DetectParams` per view (None: the
+    detector's defaults, and no ``params`` argument is passed to a replacement ``detector``).
     """
     from concurrent.futures import ThreadPoolExecutor
 
     fn = detect_seam if detector is None else detector
     rois = rois if rois is not None else [None] * len(images)
     cams = (list(camera) if isinstance(camera, Sequence) else [camera] * len(images))
-    if len(rois) != len(images) or len(cams) != len(images) or \
+    prms = list(params) if params is not None else [None] * len(images)
+    if len(rois) != len(images) or len(cams) != len(images) or len(prms) != len(images) or \
             (names is not None and len(names) != len(images)):
         raise InputError(f"detect_seams: {len(images)} images but {len(rois)} regions of interest, "
-                         f"{len(cams)} cameras and {len(names or images)} names")
+                         f"{len(cams)} cameras, {len(prms)} parameter sets and "
+                         f"{len(names or images)} names")
 
     def one(i: int) -> SeamDetection:
+        extra = {} if prms[i] is None else {"params": prms[i]}
         try:
-            return fn(images[i], camera=cams[i], roi=rois[i])  # type: ignore[no-any-return]
+            return fn(images[i], camera=cams[i], roi=rois[i], **extra)  # type: ignore[no-any-return]
         except SeamguideError as err:
             if names is None:
                 raise

@@ -32,9 +32,16 @@ def runs_of(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
 class DetectParams:
     """Tuning of :func:`detect_seam` (pixel values at full resolution unless named ``coarse``).
 
+    The pixel scales are for a 2272x1704 camera at 350-450 mm (6-8 px/mm);
+    :func:`controller.vision.seam_scale.params_for_scale` sets them for another working distance.
+
     ``gamma``: camera response used to linearise grey levels (1.0 for a linear camera).
     ``coarse_factor``: shrink factor of the search image (0: automatic, ~560 px wide).
-    ``valley_r_coarse``: distance (coarse px) from the valley centre to where both sides are read.
+    ``valley_r_coarse``: distance (coarse px) from the valley centre to where both sides are read;
+    ``valley_r_px``: with an automatic ``coarse_factor``, the search image is shrunk enough that
+    this reaches at least ``valley_r_px`` full-resolution px, beyond a wide gap's edges (0: no
+    minimum; set from the working distance by
+    :func:`controller.vision.seam_scale.params_for_scale`).
     ``min_depth``: relative valley depth that marks a candidate pixel (0..1).
     ``min_length_px``: shortest candidate kept (px along the curve); ``piece_length_px``: shortest
     piece of valley kept to be joined with others that continue it across at most
@@ -51,6 +58,7 @@ class DetectParams:
     gamma: float = 2.2
     coarse_factor: int = 0
     valley_r_coarse: int = 3
+    valley_r_px: float = 0.0
     min_depth: float = 0.2
     min_length_px: float = 300.0
     step_px: float = 4.0
