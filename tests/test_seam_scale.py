@@ -63,7 +63,7 @@ def test_scales_follow_px_per_mm_and_the_widest_gap(px_per_mm, gap, length, expe
 
 def test_scales_keep_a_given_base_and_refuse_bad_input():
     p = params_for_scale(20.0, base=DetectParams(gamma=1.0, robust=False))
-    assert (p.gamma, p.robust) == (1.0, False) and p.max_gap_px == pytest.approx(52.0)
+    assert (p.gamma, p.robust) == (1.0, False) and p.max_gap_px == pytest.approx(32.0)
     for bad in (0.0, -3.0, float("nan"), float("inf")):
         with pytest.raises(InputError, match="px_per_mm"):
             params_for_scale(bad)
@@ -124,7 +124,7 @@ def test_a_close_up_gap_too_wide_for_the_defaults_is_found_with_the_scaled_param
 def test_the_job_key_gap_mm(tmp_path):
     base = {"name": "j", "views": [], "seam": {"nominal_centre_mm": [1000, 0, 0]}}
     job = job_from_dict(base)
-    assert job.seam.gap_mm == DEFAULT_GAP_MM == (0.1, 2.0)
+    assert job.seam.gap_mm == DEFAULT_GAP_MM == (0.1, 1.2)
     job = job_from_dict({**base, "seam": {**base["seam"], "gap_mm": [0.2, 1.5]}})
     from controller.cell.guidance import settings_from_job
 

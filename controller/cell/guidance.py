@@ -39,7 +39,8 @@ log = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
 #: A seam detector: ``detector(image, camera=..., roi=...)`` -> a seam detection
-#: (:func:`controller.vision.seam_detect.detect_seam` by default).
+#: (:func:`controller.vision.seam_detect.detect_seam` by default); with a nominal region it is
+#: also given ``params=`` (the view's :class:`DetectParams`, :func:`view_params`).
 Detector = Callable[..., Any]
 
 
@@ -153,7 +154,11 @@ def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSetting
         return None
     x0, y0, x1, y1 = roi if roi is not None else (0, 0, camera.width, camera.height)
     length = min(2.0 * radius * s, float(np.hypot(x1 - x0, y1 - y0)))
-    return params_for_scale(s, settings.gap_mm, seam_length_px=length)
+    p = params_for_scale(s, settings.gap_mm, seam_length_px=length)
+    log.info("%.2f px/mm at %.0f mm (gap %g-%g mm): widest gap %.1f px, profiles +-%.1f px, "
+             "shortest seam %.0f px", s, float(camera.K[0, 0]) / s, *settings.gap_mm,
+             p.max_gap_px, p.half_width_px, p.min_length_px)
+    return p
 
 
 def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,

@@ -36,7 +36,7 @@ def register(sub: Any) -> None:
                    "(without it: the defaults, tuned for about 6-8 px per mm)")
     p.add_argument("--gap-mm", type=float, nargs=2, metavar=("LO", "HI"),
                    help="with --distance-mm: the narrowest and widest expected gap, mm "
-                   "(default 0.1 2.0)")
+                   "(default 0.1 1.2)")
     p.set_defaults(func=run)
 
 

@@ -273,7 +273,7 @@ def detect_seams(images: list[NDArray[Any]], *,
                          f"{len(names or images)} names")
 
     def one(i: int) -> SeamDetection:
-        extra = {} if prms[i] is None else {"params": prms[i]}
+        extra: dict[str, Any] = {} if prms[i] is None else {"params": prms[i]}
         try:
             return fn(images[i], camera=cams[i], roi=rois[i], **extra)  # type: ignore[no-any-return]
         except SeamguideError as err:

@@ -22,8 +22,12 @@ from numpy.typing import ArrayLike
 from controller.errors import InputError
 from controller.vision.seam_params import DetectParams
 
-#: Expected gap (mm) of a butt joint when the job says nothing: from a hairline to 2 mm.
-DEFAULT_GAP_MM: tuple[float, float] = (0.1, 2.0)
+#: Expected gap (mm) when the job says nothing: a hairline to 1.2 mm, the gaps the defaults were
+#: tuned on. At the defaults' distances (6-8 px/mm) it gives the defaults' scales, so a job that
+#: does not say its gap is detected as the benchmark measures; a close-up view still gets longer
+#: profiles (a 1.2 mm gap is 24 px at 20 px/mm). A wider gap range loosens the search at every
+#: distance (wider dark lines, pen lines, accepted as gaps): give it only when the joint has it.
+DEFAULT_GAP_MM: tuple[float, float] = (0.1, 1.2)
 #: A lopsided shadow band beside the gap (the plate edge's) widens the dark band by this share.
 SHADOW_SHARE = 0.25
 #: Blur (px) on the gap's two edges together: a defocused edge darkens about 1 px outside it.
@@ -74,8 +78,10 @@ def params_for_scale(px_per_mm: float, gap_mm: ArrayLike = DEFAULT_GAP_MM, *,
     - ``min_length_px`` (shortest seam kept) = ``min(base, LENGTH_SHARE * seam_length_px)`` but
       not under :data:`MIN_LENGTH_FLOOR_PX`; ``piece_length_px`` at most that.
 
-    Everything else is ``base``'s (the defaults' noise floors: depth, fit, confidence). At the
-    defaults' own scale with gaps up to ~1.5 mm, the result equals ``base``. Raises
+    Everything else is ``base``'s (the defaults' noise floors: depth, fit, confidence). While
+    ``w <= 11.2`` px (the default 1.2 mm gap at up to 9.3 px/mm: fx 2840 px from 305 mm on) the
+    result is ``base`` but for ``valley_r_px <= 8``, which a 2272 px wide image's automatic
+    coarse factor (4 x 3 px) already reaches. Raises
     :class:`InputError` for a non-positive or non-finite ``px_per_mm`` / ``seam_length_px`` or a
     bad ``gap_mm``.
     """
