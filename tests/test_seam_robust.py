@@ -13,7 +13,7 @@ from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_ends import _border_line
 from controller.vision.seam_params import DetectParams
 from controller.vision.seam_profiles import linear_lut
-from controller.vision.seam_robust import robust_candidates
+from controller.vision.seam_robust import _bent_bridge, robust_candidates
 from controller.vision.seam_track import _best_subpath
 
 REAL = shared_data_dir() / "real-seams"
@@ -87,6 +87,32 @@ def test_a_gap_ending_at_a_dark_table_is_not_carried_across_it_to_the_image_bord
                                    else ["joint_end", "image_border"])
     assert ends[0, 1] < 5 and abs(ends[1, 1] - 720.0) < 3.0
     assert abs(ends[1, 0] - np.interp(719.0, np.arange(900), truth_x)) < 3.0
+
+
+def test_a_path_that_crosses_from_one_line_to_another_under_an_unseen_stretch_is_bent():
+    step = 4.0
+    t = np.arange(0, 1600, step)
+    kept = np.ones(len(t), bool)
+    kept[150:200] = False  # 200 px unseen (a tack weld, or nothing)
+    # Straight on under the patch: not bent.
+    line = np.column_stack([t, 0.3 * t])
+    assert _bent_bridge(line, kept, 10, 25) is None
+    # A curve of 500 px radius: the chord across 200 px turns by about 12 deg; not bent.
+    ang = t / 500.0
+    arc = 500.0 * np.column_stack([np.sin(ang), 1 - np.cos(ang)])
+    assert _bent_bridge(arc, kept, 10, 25) is None
+    # Two parallel lines 150 px apart in v, joined across the unseen stretch (two pen lines
+    # either side of a faint joint): the chord from sample 149 to 200 runs (204, 0.3 x 204 +
+    # 150) px, at 46.0 deg, against the lines' 16.7 deg.
+    jump = line + np.where(np.arange(len(t)) >= 200, 150.0, 0.0)[:, None] * [0.0, 1.0]
+    jump[150:200] = np.nan  # never read: the chord runs between the last seen samples
+    bent = _bent_bridge(jump, kept, 10, 25)
+    assert bent is not None and abs(bent - 29.3) < 0.1
+    # Unseen stretches at the ends are not bridges.
+    ends = kept.copy()
+    ends[:] = True
+    ends[:60] = False
+    assert _bent_bridge(jump, ends, 10, 25) is None
 
 
 def test_a_dark_line_that_fades_out_inside_the_sheet_is_never_returned():

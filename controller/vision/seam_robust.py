@@ -122,7 +122,10 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     # longer one means the path joined two different lines (a pen line and the joint beyond its
     # end): the longer piece is kept. A covered stretch at an end goes on to the image border
     # only over a short distance (a tack weld at the border); else the line ends where last seen.
-    centre = _bridge(pts + nrm * off[:, None], kept, max(8, int(round(200.0 / p.step_px))))
+    raw_centre = pts + nrm * off[:, None]
+    bent = _bent_bridge(raw_centre, kept, int(round(40.0 / p.step_px)),
+                        int(round(100.0 / p.step_px)))
+    centre = _bridge(raw_centre, kept, max(8, int(round(200.0 / p.step_px))))
     seen = kept
     width = np.where(lm_ok, fit["width"], w_est)
     lo, hi = _trim_at_sheet_borders(grey, lut, centre, kept, float(np.median(width[kept])), p)
@@ -161,7 +164,12 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     # A gap is a slot through the material: of two valley lines otherwise alike (the gap and the
     # edge line of a ground strip, a scribed line), the wider one is the gap.
     c.score = c.length_px * min(c.depth, 0.5) * float(sup.mean()) * float(np.sqrt(w_med))
-    if "covered" in c.end_kinds:
+    if bent is not None:
+        c.why_rejected = (f"valley path turns {bent:.0f} deg across an unseen stretch: it joins "
+                          "two different lines (a covered joint does not turn under the patch)")
+        # One of the two lines may be the joint: a strong rival all the same.
+        c.rival = True
+    elif "covered" in c.end_kinds:
         c.why_rejected = (f"valley path of {c.length_px:.0f} px stops at a covered patch (a tack "
                           "weld, spatter) with the gap going on beyond it: not an end")
     elif "open" in c.end_kinds:
@@ -211,6 +219,31 @@ def _trim_at_sheet_borders(grey: NDArray[np.uint8], lut: F64, centre: F64,
             else:
                 hi = i + 1
     return lo, hi
+
+
+def _bent_bridge(centre: F64, kept: NDArray[np.bool_], long: int, n_fit: int) -> float | None:
+    """The largest turn (deg) of a long unseen stretch's chord against the seen line beside it.
+
+    For each hole of at least ``long`` samples inside ``kept``, the chord across it (between
+    the last seen samples) against the direction of the seen line over ``n_fit`` samples on
+    each side. A joint under a tack weld goes straight on (a curve of 500 px radius turns by
+    about 12 deg over a 200 px patch); a path that left one line for another crosses between
+    them. Returns the turn when above 20 deg, else None.
+    """
+    worst = 0.0
+    for a, b in runs_of(~kept):
+        if b - a < long or a == 0 or b == len(kept):
+            continue
+        chord = centre[b] - centre[a - 1]
+        chord /= np.linalg.norm(chord) + 1e-12
+        for side in (centre[max(0, a - n_fit):a][kept[max(0, a - n_fit):a]],
+                     centre[b:b + n_fit][kept[b:b + n_fit]]):
+            if len(side) < 4:
+                continue
+            d = side[-1] - side[0]
+            d /= np.linalg.norm(d) + 1e-12
+            worst = max(worst, float(np.degrees(np.arccos(np.clip(abs(d @ chord), 0, 1)))))
+    return worst if worst > 20.0 else None
 
 
 def _drop_short_runs(mask: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
