@@ -73,8 +73,9 @@ def _detect(name: str, img: np.ndarray, cam: Any) -> dict[str, Any]:
         if name == "ours":
             det = detect_seam(img, camera=cam)
             pts, conf, kinds = det.points_px, float(det.confidence), end_kinds_of(det)
+            width: float | None = float(np.median(det.width_px))
         else:
-            pts, conf, kinds = published_detect(img), 1.0, None
+            pts, conf, kinds, width = published_detect(img), 1.0, None, None
     except SeamguideError as err:
         return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:160]}",
                 "time_s": time.perf_counter() - t0}
@@ -82,7 +83,7 @@ def _detect(name: str, img: np.ndarray, cam: Any) -> dict[str, Any]:
         return {"result": "crash", "error": f"{type(err).__name__}: {str(err)[:160]}",
                 "time_s": time.perf_counter() - t0}
     return {"result": "returned", "points": pts, "confidence": conf, "kinds": kinds,
-            "time_s": time.perf_counter() - t0}
+            "width_px": width, "time_s": time.perf_counter() - t0}
 
 
 def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]:
@@ -90,7 +91,8 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
     cam = cam or default_camera()
     imgs, z = load_case(case)
     row: dict[str, Any] = {"case": list(case), "family": str(z["family"]), "views": []}
-    curves = []
+    curves: list[np.ndarray] = []
+    widths: list[float | None] = []
     for i, img in enumerate(imgs):
         truth = view_truth(z, i)
         v: dict[str, Any] = {"gap_px": truth["gap_px"], "end_kinds": truth["end_kinds"],
@@ -101,20 +103,25 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
                 r.update(score_view(r["points"], truth, r.pop("kinds")))
                 if name == "ours":
                     curves.append(r["points"])
+                    widths.append(r["width_px"])
                 r.pop("points")
+            r.pop("width_px", None)
             v[name] = r
         row["views"].append(v)
     if len(imgs) == 2:
-        row["pair"] = _locate(z, curves, cam) if len(curves) == 2 else {"result": "refused"}
+        row["pair"] = (_locate(z, curves, widths, cam) if len(curves) == 2
+                       else {"result": "refused"})
         row["pair"]["ends_seen"] = all(k == "joint_end" for v in row["views"]
                                        for k in v["end_kinds"])
     return row
 
 
-def _locate(z: dict[str, Any], curves: list[np.ndarray], cam: Any) -> dict[str, Any]:
+def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | None],
+            cam: Any) -> dict[str, Any]:
     both = np.intersect1d(z["seam_index0"], z["seam_index1"])
     truth = z["seam_points_mm"][both]
-    views = [ViewObservation(cam, z[f"T{i}"], c, f"view{i + 1}") for i, c in enumerate(curves)]
+    views = [ViewObservation(cam, z[f"T{i}"], c, f"view{i + 1}", gap_width_px=w)
+             for i, (c, w) in enumerate(zip(curves, widths, strict=True))]
     t0 = time.perf_counter()
     try:
         P3 = locate_seam(views, nominal_region=(np.asarray(z["centre_mm"]),

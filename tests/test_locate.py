@@ -115,6 +115,43 @@ def test_wrong_pose_of_one_view_is_caught_by_end_point_gap():
     assert max(info.value.details["quality"]["endpoint_gap_mm"]) > 1.0
 
 
+def _shifted(obs: ViewObservation, px: float) -> np.ndarray:
+    """``obs``'s curve moved ``px`` across itself (image normal), as a band's middle would be."""
+    uv = obs.seam_px
+    t = np.gradient(uv, axis=0)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    return uv + px * np.column_stack([-t[:, 1], t[:, 0]])
+
+
+def test_a_view_that_took_a_shadow_band_for_the_gap_is_refused_by_the_gap_widths():
+    # View 2 took the gap (2.8 px) and a shadow band beside it (7 px) as one dark band: its
+    # centreline is 3.5 px off the joint's. The epipolar matching absorbs that as depth: the
+    # seam comes out a millimetre off and passes every reprojection check.
+    P = seam_curve("s_curve")
+    obs = observe(P, camera_poses(P))
+    off = ViewObservation(obs[1].camera, obs[1].T_base_cam, _shifted(obs[1], 3.5), "view2")
+    seam = locate_seam([obs[0], off])
+    err = PolylineDistance(P)(seam.dense_points_mm)
+    assert np.median(err) > 0.5  # the blind spot: a wrong seam, accepted
+    a = ViewObservation(obs[0].camera, obs[0].T_base_cam, obs[0].seam_px, "view1",
+                        gap_width_px=2.8)
+    b = ViewObservation(off.camera, off.T_base_cam, off.seam_px, "view2", gap_width_px=9.8)
+    with pytest.raises(TriangulationError, match="different widths") as info:
+        locate_seam([a, b])
+    w = info.value.details["quality"]["gap_width_mm"]
+    T = obs[0].T_base_cam  # px / mm = fx / the seam's depth in front of the camera
+    px_mm = obs[0].camera.fx / float(np.median((P - T[:3, 3]) @ T[:3, 2]))
+    assert w[0] == pytest.approx(2.8 / px_mm, rel=0.05) and w[1] == pytest.approx(9.8 / px_mm,
+                                                                                   rel=0.05)
+    # The same gap seen about as wide in both views (a ragged edge, blur): accepted.
+    b_ok = ViewObservation(obs[1].camera, obs[1].T_base_cam, obs[1].seam_px, "view2",
+                           gap_width_px=3.6)
+    seam = locate_seam([a, b_ok])
+    assert seam.quality["gap_width_mm"][1] == pytest.approx(3.6 / px_mm, rel=0.05)
+    # A view without a width (a detector that does not measure one) is not compared.
+    assert locate_seam([a, obs[1]]).quality["gap_width_mm"][1] is None
+
+
 def test_another_seam_in_view_two_lands_outside_the_nominal_region():
     P = seam_curve("straight")
     Q = P.copy()

@@ -87,6 +87,12 @@ class GuidanceSettings:
         return np.asarray(self.nominal_centre_mm, dtype=np.float64), float(self.nominal_radius_mm)
 
 
+def _median_width(det: Any) -> float | None:
+    """A detection's median gap width (px), if it measured one (a stand-in detector may not)."""
+    w = getattr(det, "width_px", None)
+    return None if w is None or len(w) == 0 else float(np.median(w))
+
+
 def settings_from_job(job: Job) -> GuidanceSettings:
     """The pipeline settings of ``job``: quality limits, seam sampling and region, weld, box."""
     s = job.seam
@@ -205,7 +211,7 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
     if check is not None:
         check()
     observations = [ViewObservation(v.camera, v.T_base_cam, d.points_px, v.name,
-                                    getattr(d, "end_kinds", None))
+                                    getattr(d, "end_kinds", None), _median_width(d))
                     for v, d in zip(views, detections, strict=True)]
     seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
                        count=settings.count, nominal_region=settings.nominal_region,

@@ -40,6 +40,8 @@ class ViewObservation:
     #: What each end of ``seam_px`` is (first point first): ``joint_end`` (a real end of the
     #: joint) or ``image_border`` (the seam leaves the image); None: judged by the border margin.
     end_kinds: tuple[str, str] | None = None
+    #: The detected gap's median width (px), when the detector measured it; None: not checked.
+    gap_width_px: float | None = None
 
 
 @dataclass(frozen=True)
@@ -53,6 +55,7 @@ class QualityLimits:
     min_coverage: float = 0.9
     max_degenerate_fraction: float = 0.15
     max_endpoint_gap_mm: float = 1.0
+    max_gap_width_diff_mm: float = 0.3
     min_length_mm: float = 10.0
     require_ends_in_view: bool = True
     border_margin_px: float = 12.0
@@ -110,6 +113,12 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     ``joint_end`` there). An end no view sees (the seam runs out of the images, or out of the
     stereo overlap) is clipped to ``nominal_region`` when ``clip_unseen_ends`` (the job allows
     it) and refused otherwise; ``quality["ends"]`` says which, per end.
+
+    Where the views carry the detected gap's width, the widths in mm must agree
+    (``max_gap_width_diff_mm``, or half the narrower): a view that took a shadow band or a cut
+    face beside the gap for part of it has its centreline off by half of that, which shifts the
+    triangulated seam along the other view's rays by a millimetre without tripping the
+    reprojection limits.
     """
     if len(views) < 2:
         raise InputError(f"locating a seam needs at least two views, got {len(views)}")
@@ -197,6 +206,7 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         "ends_cut_by_image_border": cut,
         "ends": ends,
         "length_mm": float(arc_length(dense)[-1]),
+        "gap_width_mm": [gap_width_mm(v, dense) for v in views],
     }
     if nominal_region is not None:
         centre = np.asarray(nominal_region[0], dtype=np.float64)
@@ -207,6 +217,20 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     points = resample_curve(dense, spacing_mm, count)
     return Seam3D(points_mm=points, dense_points_mm=dense, ray_gap_mm=gap_mm,
                   reprojection_px=reproj, angle_deg=angle[span], quality=quality)
+
+
+def gap_width_mm(view: ViewObservation, dense: F64) -> float | None:
+    """The view's detected gap width (``gap_width_px``) in mm at the seam's median depth.
+
+    ``dense``: the 3D seam (base frame, mm). Width px x depth / fx: the width across the line
+    of sight (a gap seen obliquely looks narrower by the cosine, up to ~15 % at the views'
+    usual 30 deg). None when the view carries no width.
+    """
+    if view.gap_width_px is None:
+        return None
+    T = np.asarray(view.T_base_cam, dtype=np.float64)
+    z = (dense - T[:3, 3]) @ T[:3, 2]
+    return float(view.gap_width_px * np.median(z) / view.camera.fx)
 
 
 def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_], dense: F64,
@@ -254,6 +278,16 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
                         f"job's nominal seam centre, outside its {q['nominal_radius_mm']:.0f} mm "
                         f"region: another edge was probably taken for the seam, or the part is "
                         f"not where the job expects it")
+    widths = [(v.name, w) for v, w in zip(views, q.get("gap_width_mm") or [None] * len(views),
+                                          strict=True) if w is not None]
+    if len(widths) >= 2:
+        lo, hi = min(w for _, w in widths), max(w for _, w in widths)
+        if hi - lo > max(lim.max_gap_width_diff_mm, 0.5 * lo):
+            seen = ", ".join(f"{w:.2f} mm in {n}" for n, w in widths)
+            problems.append(f"the views see the gap at different widths ({seen}; limit "
+                            f"{lim.max_gap_width_diff_mm} mm or half the narrower): one of them "
+                            f"took a shadow or a cut face beside the gap for part of it, so its "
+                            f"centreline is off the joint (see the overlays)")
     unseen = [e for e in q["ends"] if e["status"] == "unseen"]
     if lim.require_ends_in_view and unseen:
         problems.append(unseen_ends_problem(unseen))
