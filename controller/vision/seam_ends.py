@@ -163,7 +163,8 @@ def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
             continue
         # A step needs 20 px of image after it to be seen to last.
         room = _border_crossing(start, tang, W, H, float(ks[-1])) - 20.0
-        if any(k < room for k in _side_crossings(grey, lut, start + np.outer(ks, tang), ks)):
+        if any(k < room for k in _side_crossings(grey, lut, start + np.outer(ks, tang), ks,
+                                                 entered=True)):
             return True
     return False
 
@@ -320,7 +321,8 @@ def _continues(run: F64, end_pt: F64, tang: F64) -> bool:
     return bool(d @ tang > np.cos(np.radians(20.0)) * np.linalg.norm(d))
 
 
-def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> list[float]:
+def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
+                    entered: bool = False) -> list[float]:
     """Where the brightness along the line ``ps`` (at offsets ``ks``) steps sharply and lastingly.
 
     From well inside the sheet (``ks > -14``) outward: a step is where the median brightness
@@ -374,6 +376,11 @@ def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64) -> list
         # Off the sheet for good: the brightness never comes back past half-way (a dot or a
         # glare band on the sheet is left again; the table beyond a border is not).
         if np.any(sgn * (val[k + 2:lim] - half) > 0.2 * amp):
+            continue
+        # With ``entered``, nor the far side of a dip: the line was at the outer level just
+        # before (the way out of a dot or a mark, read from inside it).
+        if entered and np.any(
+                sgn * (val[max(k - hold - 16, 0):max(k - hold, 0)] - half) < -0.5 * amp):
             continue
         v0, v1 = val[k], val[k + 1]
         frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
