@@ -331,6 +331,9 @@ def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
     light moves it too slowly. Each step is placed where the brightness passes half-way between
     the two levels, and must be sharp (a few pixels of blur). All steps are returned, inner
     first: which one is the sheet border is decided across lines (:func:`_border_line`).
+    ``entered``: also drop a step whose line was at the outer level just before it (the far
+    side of a dot wider than 6 px, read from inside it); :func:`_sheets_end` asks for that, the
+    border line at the seam's end does not (there it cost a real photograph).
     """
     val, inside = bilinear(grey, lut, ps[:, 0], ps[:, 1])
     val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
