@@ -27,6 +27,7 @@ BENCHMARKS: dict[str, tuple[list[str], list[str]]] = {
     "cli_startup": (["bench/bench_cli_startup.py"], ["--quick"]),
     "detect": (["-m", "bench.bench_detect"], ["--quick"]),
     "detect_scale": (["-m", "bench.bench_detect_scale"], ["--quick"]),
+    "detect_noseam": (["-m", "bench.bench_detect_noseam"], ["--views", "6", "--shifts", "200"]),
     "detect_speed": (["-m", "bench.bench_detect_speed"],
                      ["--scenes", "2", "--runs", "2", "--blocks", "2"]),
     "locate": (["bench/bench_locate.py"],
