@@ -331,9 +331,7 @@ def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
     light moves it too slowly. Each step is placed where the brightness passes half-way between
     the two levels, and must be sharp (a few pixels of blur). All steps are returned, inner
     first: which one is the sheet border is decided across lines (:func:`_border_line`).
-    ``entered``: also drop a step whose line was at the outer level just before it (the far
-    side of a dot wider than 6 px, read from inside it); :func:`_sheets_end` asks for that, the
-    border line at the seam's end does not (there it cost a real photograph).
+    ``entered``: also drop the far side of a dip (the line was at the outer level just before).
     """
     val, inside = bilinear(grey, lut, ps[:, 0], ps[:, 1])
     val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
@@ -380,8 +378,8 @@ def _side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
         # glare band on the sheet is left again; the table beyond a border is not).
         if np.any(sgn * (val[k + 2:lim] - half) > 0.2 * amp):
             continue
-        # With ``entered``, nor the far side of a dip: the line was at the outer level just
-        # before (the way out of a dot or a mark, read from inside it).
+        # The way out of a dot read from inside it; not asked for at the seam's end (there it
+        # cost a real photograph).
         if entered and np.any(
                 sgn * (val[max(k - hold - 16, 0):max(k - hold, 0)] - half) < -0.5 * amp):
             continue
