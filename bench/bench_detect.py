@@ -73,7 +73,7 @@ def _detect(name: str, img: np.ndarray, cam: Any) -> dict[str, Any]:
         if name == "ours":
             det = detect_seam(img, camera=cam)
             pts, conf, kinds = det.points_px, float(det.confidence), end_kinds_of(det)
-            width: float | None = float(np.median(det.width_px))
+            width: float | None = det.gap_width_px
         else:
             pts, conf, kinds, width = published_detect(img), 1.0, None, None
     except SeamguideError as err:

@@ -87,12 +87,6 @@ class GuidanceSettings:
         return np.asarray(self.nominal_centre_mm, dtype=np.float64), float(self.nominal_radius_mm)
 
 
-def _median_width(det: Any) -> float | None:
-    """A detection's median gap width (px), if it measured one (a stand-in detector may not)."""
-    w = getattr(det, "width_px", None)
-    return None if w is None or len(w) == 0 else float(np.median(w))
-
-
 def settings_from_job(job: Job) -> GuidanceSettings:
     """The pipeline settings of ``job``: quality limits, seam sampling and region, weld, box."""
     s = job.seam
@@ -155,14 +149,14 @@ def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSetting
     if region is None:
         return None
     centre, radius = region
-    s = px_per_mm_at(float(camera.K[0, 0]), T_base_cam, centre)
+    s = px_per_mm_at(camera.fx, T_base_cam, centre)
     if s is None:
         return None
     x0, y0, x1, y1 = roi if roi is not None else (0, 0, camera.width, camera.height)
     length = min(2.0 * radius * s, float(np.hypot(x1 - x0, y1 - y0)))
     p = params_for_scale(s, settings.gap_mm, seam_length_px=length)
     log.info("%.2f px/mm at %.0f mm (gap %g-%g mm): widest gap %.1f px, profiles +-%.1f px, "
-             "shortest seam %.0f px", s, float(camera.K[0, 0]) / s, *settings.gap_mm,
+             "shortest seam %.0f px", s, camera.fx / s, *settings.gap_mm,
              p.max_gap_px, p.half_width_px, p.min_length_px)
     return p
 
@@ -211,7 +205,8 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
     if check is not None:
         check()
     observations = [ViewObservation(v.camera, v.T_base_cam, d.points_px, v.name,
-                                    getattr(d, "end_kinds", None), _median_width(d))
+                                    getattr(d, "end_kinds", None),
+                                    getattr(d, "gap_width_px", None))
                     for v, d in zip(views, detections, strict=True)]
     seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
                        count=settings.count, nominal_region=settings.nominal_region,

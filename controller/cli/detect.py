@@ -100,9 +100,9 @@ def _scaled(params: Any, args: argparse.Namespace, camera: Any) -> Any:
         raise InputError(f"--distance-mm {args.distance_mm}: give the working distance in mm, a "
                          "positive number")
     gap = check_gap_mm(args.gap_mm if args.gap_mm is not None else DEFAULT_GAP_MM, "--gap-mm")
-    px_per_mm = float(camera.K[0, 0]) / args.distance_mm
+    px_per_mm = camera.fx / args.distance_mm
     log.info("scales for %.2f px/mm (fx %.1f px at %.1f mm), gap %g-%g mm", px_per_mm,
-             float(camera.K[0, 0]), args.distance_mm, *gap)
+             camera.fx, args.distance_mm, *gap)
     return params_for_scale(px_per_mm, gap, base=params)
 
 

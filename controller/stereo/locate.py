@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from controller.errors import InputError, TriangulationError
 from controller.geometry.camera_model import CameraModel
+from controller.geometry.poses import invert, transform_points
 from controller.stereo.epipolar import match_curves, point_on_polyline, relative_pose
 from controller.stereo.seam_curve import arc_length, resample_curve, smooth_curve
 from controller.stereo.seam_ends import (
@@ -228,8 +229,7 @@ def gap_width_mm(view: ViewObservation, dense: F64) -> float | None:
     """
     if view.gap_width_px is None:
         return None
-    T = np.asarray(view.T_base_cam, dtype=np.float64)
-    z = (dense - T[:3, 3]) @ T[:3, 2]
+    z = transform_points(invert(view.T_base_cam), dense)[:, 2]
     return float(view.gap_width_px * np.median(z) / view.camera.fx)
 
 

@@ -113,6 +113,11 @@ class SeamDetection:
                 for e, k in zip(self.endpoints_px, self.end_kinds, strict=True)]
 
     @property
+    def gap_width_px(self) -> float:
+        """The gap's median width along the seam (px)."""
+        return float(np.median(self.width_px))
+
+    @property
     def occluded(self) -> NDArray[np.bool_]:
         """(K,) bool per point of ``points_px``: inside an occluded (bridged) span."""
         s = arc_length(self.points_px)
@@ -131,7 +136,7 @@ class SeamDetection:
             "occluded_spans_px": [[round(a, 1), round(b, 1)] for a, b in self.occluded_spans_px],
             "confidence": round(float(self.confidence), 4),
             "reasons": list(self.reasons),
-            "gap_width_px": round(float(np.median(self.width_px)), 3),
+            "gap_width_px": round(self.gap_width_px, 3),
             "stats": {k: (round(v, 4) if isinstance(v, float) else v)
                       for k, v in self.stats.items()},
         }
