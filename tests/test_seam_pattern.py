@@ -1,0 +1,83 @@
+"""Lines of a table's grid are not joints (controller.vision.seam_pattern)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from controller.errors import SeamNotFound
+from controller.geometry.camera_model import default_camera
+from controller.vision import seam_detect
+from controller.vision.seam_detect import detect_seam
+from controller.vision.seam_params import Candidate, DetectParams
+from controller.vision.seam_pattern import mark_table_lines
+from drivers.sim.sim_render import render, suggest_view_poses
+from drivers.sim.sim_scene import make_scene
+
+
+def _line(p0: tuple[float, float], p1: tuple[float, float]) -> tuple:
+    a, b = np.array(p0, float), np.array(p1, float)
+    L = float(np.linalg.norm(b - a))
+    return (a + b) / 2, (b - a) / L, -L / 2, L / 2
+
+
+def _cand(p0: tuple[float, float], p1: tuple[float, float]) -> Candidate:
+    P = np.linspace(p0, p1, 50)
+    return Candidate(P, 1.0, float(np.linalg.norm(np.subtract(p1, p0))), points=P)
+
+
+HORIZONTAL = ((100.0, 800.0), (2100.0, 800.0))
+
+
+@pytest.mark.parametrize("others, grid", [
+    # crossed by a line of the other family and a line of its own family 600 px away: a grid
+    ([((1000, 300), (1000, 1300)), ((100, 200), (2100, 200))], True),
+    # crossed by two parallel lines 700 px apart: a grid seen without a second line of its own
+    ([((600, 300), (600, 1300)), ((1300, 300), (1300, 1300))], True),
+    # a parallel line only (a ground strip's edge, a slot): not enough
+    ([((100, 400), (2100, 400))], False),
+    # crossed once (a pen line across the joint) and a pen line 100 px beside it
+    ([((1000, 300), (1000, 1300)), ((100, 900), (2100, 900))], False),
+    # a line that would cross it but stops 200 px short (lines of the table stop at the sheets)
+    ([((1000, 1000), (1000, 1600)), ((100, 200), (2100, 200))], False),
+])
+def test_a_straight_line_in_a_grid_is_a_table_line(others: list, grid: bool) -> None:
+    c = _cand(*HORIZONTAL)
+    lines = [_line(*HORIZONTAL)] + [_line(*o) for o in others]
+    mark_table_lines([c], lines, DetectParams())
+    assert ("table's grid" in c.why_rejected) is grid, c.why_rejected
+
+
+def test_a_curved_line_is_never_a_table_line() -> None:
+    t = np.linspace(0, 1, 80)
+    P = np.column_stack([100 + 2000 * t, 800 + 150 * np.sin(np.pi * t)])
+    c = Candidate(P, 1.0, 2100.0, points=P)
+    lines = [_line((1000, 300), (1000, 1300)), _line((100, 200), (2100, 200))]
+    mark_table_lines([c], lines, DetectParams())
+    assert c.why_rejected == ""
+
+
+def _grid_table_view_without_a_seam() -> np.ndarray:
+    # A plate on a table engraved with a 100 mm grid, seen 200 mm beside its joint (as
+    # bench/bench_detect_noseam.py): one grid line runs across the whole image, crossed by three.
+    cam = default_camera()
+    scene = make_scene("straight", 20002, "hard", variety="wide")
+    assert scene.look is not None and scene.look.table == "grid_lines"
+    T = suggest_view_poses(scene, cam, standoff_mm=350.0)[0].copy()
+    T[:3, 3] -= T[:3, 1] * 200.0
+    r = render(scene, cam, T, seed=0)
+    assert len(r.seam_px) == 0
+    return np.asarray(r.image)
+
+
+def test_a_grid_line_of_the_table_is_not_returned_as_a_seam(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    img = _grid_table_view_without_a_seam()
+    with pytest.raises(SeamNotFound) as err:
+        detect_seam(img, camera=default_camera())
+    # The profile model's pass set the grid line aside; the valley-path pass found nothing else.
+    assert "table's grid" in err.value.details["first_way"]
+    # Without the grid check the grid line is a perfect seam: the blind spot this closes.
+    monkeypatch.setattr(seam_detect, "mark_table_lines", lambda *a: None)
+    det = detect_seam(img, camera=default_camera())
+    assert det.confidence >= 0.9 and det.end_kinds == ("image_border", "image_border")
