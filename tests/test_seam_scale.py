@@ -56,10 +56,12 @@ def test_the_defaults_are_unchanged():
 def test_scales_follow_px_per_mm_and_the_widest_gap(px_per_mm, gap, length, expect):
     p = params_for_scale(px_per_mm, gap, seam_length_px=length)
     assert tuple(getattr(p, k) for k in SCALED) == pytest.approx(expect)
+    # A table's grid pitch: 25 mm, never closer than the defaults' 200 px.
+    assert p.pattern_offset_px == pytest.approx(max(200.0, 25.0 * px_per_mm))
     # Everything else is the defaults' (the noise floors: depth, fit, confidence).
     base = DetectParams()
     assert all(getattr(p, f.name) == getattr(base, f.name) for f in fields(p)
-               if f.name not in SCALED)
+               if f.name not in SCALED + ("pattern_offset_px",))
 
 
 def test_scales_keep_a_given_base_and_refuse_bad_input():

@@ -55,9 +55,8 @@ class DetectParams:
     valley path (:mod:`controller.vision.seam_robust`: ragged, wide, covered or dark gaps).
     ``straight_px``: a line whose points lie within this RMS distance of their principal axis is
     straight; ``pattern_offset_px``: how far apart two parallel lines of a table's grid are at
-    least (:mod:`controller.vision.seam_pattern`; 25 mm at the default scale, farther than a
-    pen line beside a joint; not yet set by
-    :func:`~controller.vision.seam_scale.params_for_scale`).
+    least (:mod:`controller.vision.seam_pattern`; 25 mm at 8 px/mm, farther than a pen line
+    beside a joint).
     """
 
     gamma: float = 2.2

@@ -38,6 +38,9 @@ SIDE_PX = 6.0
 LENGTH_SHARE = 0.5
 #: The shortest seam kept never goes under this (px): shorter valleys are scratches and noise.
 MIN_LENGTH_FLOOR_PX = 100.0
+#: Two lines of a table's grid are at least this far apart (mm): farther than a fitter's pen
+#: line beside a joint (3-20 mm), closer than a welding table's pitch (50-100 mm).
+GRID_PITCH_MM = 25.0
 
 
 def check_gap_mm(gap_mm: ArrayLike, name: str = "gap_mm") -> tuple[float, float]:
@@ -76,12 +79,16 @@ def params_for_scale(px_per_mm: float, gap_mm: ArrayLike = DEFAULT_GAP_MM, *,
     - ``valley_r_px`` (coarse search: where both sides of a valley are read, full-res px) =
       ``max(base, b / 2)``: outside the band, so a wide gap is a valley, not two edges;
     - ``min_length_px`` (shortest seam kept) = ``min(base, LENGTH_SHARE * seam_length_px)`` but
-      not under :data:`MIN_LENGTH_FLOOR_PX`; ``piece_length_px`` at most that.
+      not under :data:`MIN_LENGTH_FLOOR_PX`; ``piece_length_px`` at most that;
+    - ``pattern_offset_px`` (closest two lines of a table's grid) =
+      ``max(base, GRID_PITCH_MM * px_per_mm)``: a pen line 20 mm beside a close-up joint is not
+      a grid's second line.
 
     Everything else is ``base``'s (the defaults' noise floors: depth, fit, confidence). While
     ``w <= 11.2`` px (the default 1.2 mm gap at up to 9.3 px/mm: fx 2840 px from 305 mm on) the
     result is ``base`` but for ``valley_r_px <= 8``, which a 2272 px wide image's automatic
-    coarse factor (4 x 3 px) already reaches. Raises
+    coarse factor (4 x 3 px) already reaches, and from 8 px/mm (355 mm) on a larger
+    ``pattern_offset_px``. Raises
     :class:`InputError` for a non-positive or non-finite ``px_per_mm`` / ``seam_length_px`` or a
     bad ``gap_mm``.
     """
@@ -103,7 +110,8 @@ def params_for_scale(px_per_mm: float, gap_mm: ArrayLike = DEFAULT_GAP_MM, *,
                    half_width_px=max(p.half_width_px, band / 2 + SIDE_PX),
                    valley_r_px=max(p.valley_r_px, band / 2),
                    min_length_px=min_length,
-                   piece_length_px=min(p.piece_length_px, min_length))
+                   piece_length_px=min(p.piece_length_px, min_length),
+                   pattern_offset_px=max(p.pattern_offset_px, GRID_PITCH_MM * s))
 
 
 def px_per_mm_at(fx_px: float, T_base_cam: ArrayLike, point_mm: ArrayLike) -> float | None:
