@@ -40,8 +40,10 @@ HORIZONTAL = ((100.0, 800.0), (2100.0, 800.0))
     ([((1000, 300), (1000, 1300)), ((100, 900), (2100, 900))], False),
     # a line that would cross it but stops 200 px short (lines of the table stop at the sheets)
     ([((1000, 1000), (1000, 1600)), ((100, 200), (2100, 200))], False),
-    # a line of its own family 600 px away and two of the other family across it, stopping short
+    # a line of its own family 600 px away and two of the other family away from it
     ([((100, 200), (2100, 200)), ((600, 1000), (600, 1600)), ((1300, 1000), (1300, 1600))], True),
+    ([((100, 200), (2100, 200)), ((2300, 1000), (2300, 1600)), ((2800, 900), (2800, 1600))],
+     True),
     # the same without the line of its own family: a straight joint beside a grid's other family
     ([((600, 1000), (600, 1600)), ((1300, 1000), (1300, 1600))], False),
 ])

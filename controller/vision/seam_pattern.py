@@ -93,8 +93,9 @@ def mark_table_lines(cands: list[Candidate], lines: list[Line], p: DetectParams)
       ``p.pattern_offset_px`` away parallel (within :data:`PARALLEL_DEG`) to it or to the
       crossing one; or
     - a line runs parallel to it at least ``p.pattern_offset_px`` away, and two lines parallel
-      to each other that far apart run across it (their extensions cross it inside its extent):
-      it is aligned with one family of a grid whose other family is in view.
+      to each other that far apart run across its direction: it is aligned with one family of a
+      grid whose other family is in view (a piece of a grid line in a corner of the image, the
+      other family seen elsewhere).
     """
     cos_cross = np.cos(np.radians(CROSS_DEG))
     for c in cands:
@@ -113,16 +114,15 @@ def mark_table_lines(cands: list[Candidate], lines: list[Line], p: DetectParams)
                 continue
             # Where the two lines meet, along each of them.
             s, t = np.linalg.solve(np.column_stack([d, -d2]), m2 - m)
-            if s0 - TOUCH_PX <= s <= s1 + TOUCH_PX:
-                across.append(ln)
-                if t0 - TOUCH_PX <= t <= t1 + TOUCH_PX:
-                    touching.append(ln)
+            across.append(ln)
+            if s0 - TOUCH_PX <= s <= s1 + TOUCH_PX and t0 - TOUCH_PX <= t <= t1 + TOUCH_PX:
+                touching.append(ln)
         twins = _apart([line], lines, p.pattern_offset_px)
         why = ""
         if touching and (twins or _apart(touching, touching, p.pattern_offset_px)):
             why = f"crossed by {len(touching)} straight dark line(s)"
         elif twins and _apart(across, across, p.pattern_offset_px):
-            why = f"aligned with a family of {len(twins) + 1} parallel lines, crossed by another"
+            why = f"aligned with a family of {len(twins) + 1} parallel lines, with another across"
         if why:
             c.why_rejected = f"a straight line {why}: a line of the table's grid, not a joint"
             c.rival = False
