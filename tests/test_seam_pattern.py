@@ -50,7 +50,7 @@ HORIZONTAL = ((100.0, 800.0), (2100.0, 800.0))
 def test_a_straight_line_in_a_grid_is_a_table_line(others: list, grid: bool) -> None:
     c = _cand(*HORIZONTAL)
     lines = [_line(*HORIZONTAL)] + [_line(*o) for o in others]
-    mark_table_lines([c], lines, DetectParams())
+    mark_table_lines([c], lambda: lines, DetectParams())
     assert ("table's grid" in c.why_rejected) is grid, c.why_rejected
 
 
@@ -59,7 +59,7 @@ def test_a_curved_line_is_never_a_table_line() -> None:
     P = np.column_stack([100 + 2000 * t, 800 + 150 * np.sin(np.pi * t)])
     c = Candidate(P, 1.0, 2100.0, points=P)
     lines = [_line((1000, 300), (1000, 1300)), _line((100, 200), (2100, 200))]
-    mark_table_lines([c], lines, DetectParams())
+    mark_table_lines([c], lambda: lines, DetectParams())
     assert c.why_rejected == ""
 
 

@@ -44,6 +44,7 @@ image (undistort with ``CameraModel.pixels_to_normalized``).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -175,7 +176,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     cands, seen, valleys, factor = coarse_candidates(sub, lut, p)
     # Lines of the table are set aside before refining, so that they do not use up the
     # candidates refined (max_candidates) nor make the joint look ambiguous.
-    lines = straight_lines(valleys, factor, p)
+    lines = functools.cache(lambda: straight_lines(valleys, factor, p))
     mark_table_lines(cands, lines, p)
     table = [c for c in cands if c.why_rejected]
     cands = [c for c in cands if not c.why_rejected]

@@ -19,6 +19,8 @@ of wrong seams.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import cv2
 import numpy as np
 from numpy.typing import NDArray
@@ -45,7 +47,7 @@ def straight_lines(valleys: NDArray[np.uint8], factor: int, p: DetectParams) -> 
     components of the mask would join them into one blob.
     """
     min_len = p.min_length_px / factor
-    segs = cv2.HoughLinesP(valleys, 1.0, np.pi / 360, int(0.6 * min_len),
+    segs = cv2.HoughLinesP(valleys, 1.0, np.pi / 180, int(0.6 * min_len),
                            minLineLength=min_len, maxLineGap=3.0)
     out: list[Line] = []
     for x0, y0, x1, y1 in ([] if segs is None else segs.reshape(-1, 4)):
@@ -70,22 +72,20 @@ def _a_line_in(valleys: NDArray[np.uint8], a: F64, b: F64) -> bool:
     t = np.linspace(0.0, 1.0, max(2, int(L) + 1))[:, None]
     P = a + t * (b - a)
     n = np.array([a[1] - b[1], b[0] - a[0]]) / max(L, 1e-9)
-
-    def share(k: float) -> float:
-        Q = np.round(P + k * n).astype(np.int64)
-        Q[:, 0] = np.clip(Q[:, 0], 0, W - 1)
-        Q[:, 1] = np.clip(Q[:, 1], 0, H - 1)
-        return float(valleys[Q[:, 1], Q[:, 0]].mean())
-
-    on = max(share(-1.0), share(0.0), share(1.0))
-    around = (share(-4.0) + share(4.0)) / 2
+    shifts = np.array([-1.0, 0.0, 1.0, -4.0, 4.0])
+    Q = np.rint(P[None, :, :] + shifts[:, None, None] * n).astype(np.int64)  # (5, N, 2)
+    share = valleys[np.clip(Q[..., 1], 0, H - 1), np.clip(Q[..., 0], 0, W - 1)].mean(axis=1)
+    on = float(share[:3].max())
+    around = float(share[3:].mean())
     return on >= 0.7 and on - around >= 0.4
 
 
-def mark_table_lines(cands: list[Candidate], lines: list[Line], p: DetectParams) -> None:
+def mark_table_lines(cands: list[Candidate], lines: Callable[[], list[Line]],
+                     p: DetectParams) -> None:
     """Reject (``why_rejected``) each candidate of ``cands`` that is a line of a table's grid.
 
-    ``lines``: the straight coarse lines of the image (:func:`straight_lines`). A candidate whose
+    ``lines``: gives the straight lines of the image (:func:`straight_lines`), called only when a
+    candidate is straight (most joints are not: no Hough transform for them). A candidate whose
     centreline (refined, else coarse) is straight is a grid line when
 
     - one of ``lines`` crosses it (at :data:`CROSS_DEG` or more, reaching within
@@ -108,7 +108,7 @@ def mark_table_lines(cands: list[Candidate], lines: list[Line], p: DetectParams)
         m, d, s0, s1 = line
         touching: list[Line] = []
         across: list[Line] = []
-        for ln in lines:
+        for ln in lines():
             m2, d2, t0, t1 = ln
             if abs(float(d @ d2)) > cos_cross:
                 continue
@@ -117,7 +117,7 @@ def mark_table_lines(cands: list[Candidate], lines: list[Line], p: DetectParams)
             across.append(ln)
             if s0 - TOUCH_PX <= s <= s1 + TOUCH_PX and t0 - TOUCH_PX <= t <= t1 + TOUCH_PX:
                 touching.append(ln)
-        twins = _apart([line], lines, p.pattern_offset_px)
+        twins = _apart([line], lines(), p.pattern_offset_px)
         why = ""
         if touching and (twins or _apart(touching, touching, p.pattern_offset_px)):
             why = f"crossed by {len(touching)} straight dark line(s)"
