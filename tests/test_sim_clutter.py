@@ -72,3 +72,12 @@ def test_tables():
     assert [d for d in _scene(table="grid_lines").decals if d.kind == "grid"]
     dark = make_scene("arc", 4, "medium", variety="wide", look={**NEUTRAL, "table": "dark"})
     assert not [d for d in dark.decals if d.layer == "table" and d.kind != "plate"]
+
+
+def test_slots_range_from_thin_lines_to_wide_slots():
+    # 0.6-12 mm, log-uniform: some as thin as a gap (the tuning part's engraved-line analogue).
+    widths = []
+    for seed in range(30):
+        slots = [d for d in _scene(seed=seed, table="slotted").decals if d.kind == "slot"]
+        widths.append(slots[0].p1[0] - slots[0].p0[0])
+    assert 0.6 <= min(widths) < 2.0 and 6.0 < max(widths) <= 12.0
