@@ -290,3 +290,16 @@ def test_occluded_spans_are_arc_length_ranges_of_the_bridged_points():
     mask[20:22] = True
     assert spans_of(pts, mask) == [(16.0, 32.0), (76.0, 88.0)]
     assert spans_of(pts, np.zeros(25, bool)) == []
+
+
+def test_a_refusal_says_each_reason_once_with_how_many_candidates_gave_it():
+    from controller.vision.seam_decision import choose
+    from controller.vision.seam_params import Candidate
+
+    line = np.column_stack([np.linspace(0, 500, 20), np.zeros(20)])
+    why = ["a straight line ...: a line of the table's grid, not a joint"] * 3 + ["too short"]
+    cands = [Candidate(line, 1.0, 500.0, why_rejected=w) for w in why]
+    with pytest.raises(SeamNotFound) as err:
+        choose(cands, DetectParams(), {}, (0, 0))
+    assert "not a joint (x3); too short)" in str(err.value)
+    assert err.value.details["rejected"] == why

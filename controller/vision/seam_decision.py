@@ -26,9 +26,12 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
     rejected = [c.why_rejected for c in cands if c.why_rejected]
     details = {**details, "rejected": rejected}
     if not good:
+        # The same reason once, with how many candidates gave it (the lines of a table's grid).
+        said = [f"{r} (x{rejected.count(r)})" if rejected.count(r) > 1 else r
+                for r in dict.fromkeys(rejected)]
         raise SeamNotFound(
             f"no weld seam found in the image ({len(cands)} candidate(s) looked at: "
-            + ("; ".join(rejected) or "no thin dark valley long enough")
+            + ("; ".join(said) or "no thin dark valley long enough")
             + "); check that the joint is in view, in focus and lit, or give a --roi", **details)
     best = good[0]
     rivals = sorted(good[1:] + [c for c in cands if c.why_rejected and c.rival],

@@ -120,9 +120,9 @@ def mark_table_lines(cands: list[Candidate], lines: Callable[[], list[Line]],
         twins = _apart([line], lines(), p.pattern_offset_px)
         why = ""
         if touching and (twins or _apart(touching, touching, p.pattern_offset_px)):
-            why = f"crossed by {len(touching)} straight dark line(s)"
+            why = "crossed by a straight dark line, with another a pitch away"
         elif twins and _apart(across, across, p.pattern_offset_px):
-            why = f"aligned with a family of {len(twins) + 1} parallel lines, with another across"
+            why = "aligned with one family of a grid whose other family is in view"
         if why:
             c.why_rejected = f"a straight line {why}: a line of the table's grid, not a joint"
             c.rival = False
