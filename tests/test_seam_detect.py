@@ -303,3 +303,26 @@ def test_a_refusal_says_each_reason_once_with_how_many_candidates_gave_it():
         choose(cands, DetectParams(), {}, (0, 0))
     assert "not a joint (x3); too short)" in str(err.value)
     assert err.value.details["rejected"] == why
+
+
+@pytest.mark.parametrize("offset_px, score, ambiguous", [
+    (60.0, 50.0, True),    # a pen line 60 px beside the seam, half as strong: which is the joint?
+    (60.0, 30.0, False),   # a faint line beside it: the seam stands out
+    (400.0, 50.0, False),  # farther than any pen line (25 mm): another line, not a doubt
+])
+def test_a_line_running_beside_the_seam_makes_it_ambiguous(offset_px, score, ambiguous):
+    from controller.errors import AmbiguousSeam
+    from controller.vision.seam_decision import choose
+    from controller.vision.seam_params import Candidate
+
+    def cand(y: float, s: float) -> Candidate:
+        P = np.column_stack([np.linspace(0, 1500, 300), np.full(300, y)])
+        return Candidate(P, s, 1500.0, points=P, width=np.full(300, 4.0), depth=0.5,
+                         valid_frac=1.0, score=s, end_kinds=("image border", "image border"))
+
+    cands = [cand(800.0, 100.0), cand(800.0 + offset_px, score)]
+    if ambiguous:
+        with pytest.raises(AmbiguousSeam, match="beside the seam"):
+            choose(cands, DetectParams(), {}, (0, 0))
+    else:
+        assert choose(cands, DetectParams(), {}, (0, 0))[0] is cands[0]

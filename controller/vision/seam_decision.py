@@ -48,6 +48,15 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
             "refusing to choose: give a --roi or a nominal seam hint",
             best_px=summary_px(best, x0, y0),
             second_px=summary_px(second, x0, y0), **details)
+    beside = _line_beside(best, good[1:], p)
+    if beside is not None:
+        other, dist = beside
+        raise AmbiguousSeam(
+            f"a second line runs beside the seam candidate, {dist:.0f} px from it along most of "
+            f"its length (score {best.score:.0f} vs {other.score:.0f}): a pen or soapstone line "
+            "drawn parallel to the joint looks like it; refusing to choose: give a --roi or a "
+            "nominal seam hint", best_px=summary_px(best, x0, y0),
+            second_px=summary_px(other, x0, y0), **details)
     conf, reasons = rate_confidence(best, ratio)
     if "open" in best.end_kinds or "covered" in best.end_kinds:
         # A point inside a sheet is never returned as an end, at any confidence threshold.
@@ -58,6 +67,35 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
         raise SeamNotFound(f"best seam candidate too weak (confidence {conf:.2f}): "
                            + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
     return best, ratio, conf, reasons
+
+
+#: A line beside the best candidate makes the choice ambiguous from this share of the best's
+#: score on: lower than the ambiguity ratio (for lines anywhere), because the joint and a pen
+#: line beside it are told apart only by how they end, which is where the detector errs.
+BESIDE_SCORE = 0.4
+#: Beside: this share of the line's points lies 10 px to ``pattern_offset_px`` from the best.
+BESIDE_SHARE = 0.7
+
+
+def _line_beside(best: Candidate, others: list[Candidate],
+                 p: DetectParams) -> tuple[Candidate, float] | None:
+    """An accepted candidate running beside ``best`` at a pen line's distance, and how far (px).
+
+    Beside: at least :data:`BESIDE_SHARE` of its points lie 10 px to ``p.pattern_offset_px``
+    (25 mm at the default scale: a fitter's pen line is drawn 3-20 mm beside the joint) from
+    ``best``'s centreline, and its score is at least :data:`BESIDE_SCORE` of ``best``'s.
+    """
+    if best.points is None:
+        return None
+    ref = best.points[:: max(1, len(best.points) // 400)]
+    for c in others:
+        if c.points is None or c.score < BESIDE_SCORE * best.score:
+            continue
+        d = np.min(np.linalg.norm(c.points[::4, None, :] - ref[None, :, :], axis=2), axis=1)
+        near = (d >= 10.0) & (d <= p.pattern_offset_px)
+        if float(np.mean(near)) >= BESIDE_SHARE:
+            return c, float(np.median(d[near]))
+    return None
 
 
 def rate_confidence(c: Candidate, ratio: float) -> tuple[float, list[str]]:
