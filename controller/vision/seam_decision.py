@@ -19,7 +19,8 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
     """The best of ``cands`` (refined), the next one's score ratio, its confidence and reasons.
 
     Raises :class:`SeamNotFound` (none passes, the best is too weak or fades out inside a sheet)
-    or :class:`AmbiguousSeam` (two of similar strength); ``details`` (with the reasons of the
+    or :class:`AmbiguousSeam` (two of similar strength, or a second line running beside the best
+    at a pen line's distance); ``details`` (with the reasons of the
     rejected candidates added) go into the error. ``offset`` (x0, y0): ROI corner, for messages.
     """
     good = sorted([c for c in cands if not c.why_rejected], key=lambda c: -c.score)

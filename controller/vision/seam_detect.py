@@ -156,8 +156,8 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     :class:`InputError`). ``roi``: (x0, y0, x1, y1) pixel box to search in (end exclusive).
     ``hint``: a nominal seam polyline (N, 2) px from the job; candidates further than 60 px (mean)
     from it are ignored. Raises :class:`SeamNotFound` (no candidate passes), :class:`AmbiguousSeam`
-    (two candidates of similar strength), :class:`InputError` (not a uint8 image, wrong size, bad
-    ROI).
+    (two candidates of similar strength, or a second line beside the best one at a pen line's
+    distance), :class:`InputError` (not a uint8 image, wrong size, bad ROI).
     """
     p = params or DetectParams()
     grey = _as_grey(image)
