@@ -238,6 +238,16 @@ def drop_duplicates(cands: list[Candidate]) -> list[Candidate]:
 
 def share_near(poly: F64, ref: F64, tol: float) -> float:
     """Share of the points of ``poly`` within ``tol`` px of a point of ``ref`` (subsampled)."""
+    d, slack = nearest_px(poly, ref)
+    return float(np.mean(d <= tol + slack))
+
+
+def nearest_px(poly: F64, ref: F64) -> tuple[F64, float]:
+    """Distance (px) from every 4th point of ``poly`` to the nearest of ``ref``, and its slack.
+
+    ``ref`` is subsampled to about 400 points; the slack is half its longest step then, what a
+    distance may exceed the distance to the curve itself by.
+    """
     a, b = poly[::4], ref[::max(1, len(ref) // 400)]
     d = np.min(np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2), axis=1)
-    return float(np.mean(d <= tol + np.linalg.norm(np.diff(b, axis=0), axis=1).max(initial=0) / 2))
+    return d, float(np.linalg.norm(np.diff(b, axis=0), axis=1).max(initial=0) / 2)

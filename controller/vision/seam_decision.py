@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.errors import AmbiguousSeam, SeamNotFound
+from controller.vision.seam_coarse import nearest_px
 from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
 
 JOINT_END = "joint_end"
@@ -88,11 +89,10 @@ def _line_beside(best: Candidate, others: list[Candidate],
     """
     if best.points is None:
         return None
-    ref = best.points[:: max(1, len(best.points) // 400)]
     for c in others:
         if c.points is None or c.score < BESIDE_SCORE * best.score:
             continue
-        d = np.min(np.linalg.norm(c.points[::4, None, :] - ref[None, :, :], axis=2), axis=1)
+        d, _ = nearest_px(c.points, best.points)
         near = (d >= 10.0) & (d <= p.pattern_offset_px)
         if float(np.mean(near)) >= BESIDE_SHARE:
             return c, float(np.median(d[near]))
