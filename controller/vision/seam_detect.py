@@ -71,7 +71,6 @@ from controller.vision.seam_decision import (
     public_end_kinds,
     spans_of,
 )
-from controller.vision.seam_look_model import check_looks
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_pattern import mark_table_lines, straight_lines
 from controller.vision.seam_profiles import linear_lut
@@ -194,8 +193,6 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         done.append(c)
     cands = drop_duplicates(done) + table
     details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
-    if p.look_check:
-        check_looks(sub, cands)
     try:
         best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
     except SeamNotFound as first:
@@ -209,8 +206,6 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         if hint_arr is not None:
             cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
         details["first_way"] = str(first)
-        if p.look_check:
-            check_looks(sub, cands)
         best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
         reasons.append("found as a whole-image valley path (the two-edge profile model did not "
                        "fit the gap)")

@@ -79,7 +79,6 @@ class DetectParams:
     min_confidence: float = 0.5
     max_candidates: int = 4
     robust: bool = True
-    look_check: bool = False  # controller.vision.seam_look_model: the learned look check
     straight_px: float = 2.5
     pattern_offset_px: float = 200.0
 
