@@ -53,6 +53,39 @@ def test_best_subpath_bridges_a_covered_stretch_and_stops_at_the_ends():
     assert score == pytest.approx(140 * 0.5 - 20 * 0.1, abs=1e-3)
 
 
+
+def _best_subpath_by_search(gain, pen):
+    """The best path's total gain by exhaustive search (every start, every step): the reference."""
+    R, C = gain.shape
+    best = -np.inf
+
+    def walk(r, c, total):
+        nonlocal best
+        total += float(gain[r, c])
+        best = max(best, total)
+        if r + 1 < R:
+            for d in (-1, 0, 1):
+                if 0 <= c + d < C:
+                    walk(r + 1, c + d, total - (pen if d else 0.0))
+
+    for r in range(R):
+        for c in range(C):
+            walk(r, c, 0.0)
+    return best
+
+
+def test_best_subpath_is_the_best_of_all_paths_and_its_steps_add_up():
+    rng = np.random.default_rng(7)
+    for _ in range(40):
+        R, C = int(rng.integers(1, 7)), int(rng.integers(1, 5))
+        gain = np.round(rng.normal(0.0, 1.0, (R, C)), 1).astype(np.float32)
+        pen = float(rng.choice([0.0, 0.3]))
+        rows, cols, score = _best_subpath(gain, pen)
+        assert score == pytest.approx(_best_subpath_by_search(gain, pen), abs=1e-4)
+        assert np.all(np.diff(rows) == 1) and np.all(np.abs(np.diff(cols)) <= 1)
+        walked = float(gain[rows, cols].sum()) - pen * int(np.count_nonzero(np.diff(cols)))
+        assert walked == pytest.approx(score, abs=1e-4)
+
 def test_a_wide_ragged_gap_under_tack_welds_is_bridged_and_reported_occluded():
     img, xx, yy, xc = _sheets()
     truth_x = _ragged_gap(img, xx, yy, xc, width=18.0)

@@ -93,34 +93,44 @@ def robust_line(rows: F64, cols: F64, seen: NDArray[np.bool_], win: int, tol: fl
 
 def _best_subpath(gain: NDArray[np.floating],
                   pen: float) -> tuple[NDArray[np.int64], NDArray[np.int64], float]:
-    """Rows, columns and total gain of the best path down the rows (start and stop anywhere)."""
+    """Rows, columns and total gain of the best path down the rows (start and stop anywhere).
+
+    A path steps to the same column or one beside it (costing ``pen``) from row to row, or starts
+    afresh where everything above would add nothing.
+    """
     R, C = gain.shape
-    ptr = np.empty((R, C), np.int8)
     S = np.empty((R, C), np.float32)
     prev = np.zeros(C, np.float32)
-    neg = np.float32(-1e9)
-    left = np.empty(C, np.float32)
-    right = np.empty(C, np.float32)
-    left[0] = right[-1] = neg
+    best = np.full(C, -1e9, np.float32)  # the better neighbour above, then the best way in
+    pen32 = np.float32(pen)
     for r in range(R):
-        left[1:] = prev[:-1]  # from column c - 1
-        right[:-1] = prev[1:]  # from column c + 1
-        left -= pen
-        right -= pen
-        m = np.maximum(np.maximum(left, prev), right)
-        p = np.where(m == prev, 0, np.where(m == left, -1, 1)).astype(np.int8)
-        start = m <= 0
-        p[start] = 2
-        m[start] = 0.0
-        S[r] = m + gain[r]
-        ptr[r] = p
+        if C > 1:
+            np.maximum(prev[:-2], prev[2:], out=best[1:-1])
+            best[0], best[-1] = prev[1], prev[-2]
+            best -= pen32
+        np.maximum(best, prev, out=best)
+        np.maximum(best, 0.0, out=best)
+        np.add(best, gain[r], out=S[r])
         prev = S[r]
+        if C == 1:
+            best[0] = -1e9
     r0, c0 = np.unravel_index(int(np.argmax(S)), S.shape)
     r, c = int(r0), int(c0)
     score = float(S[r, c])
     rows, cols = [r], [c]
-    while ptr[r, c] != 2 and r > 0:
-        c = c + int(ptr[r, c])  # ptr: the column it came from, relative to c
+    # Back along the path: at each cell, the step the forward pass took (the same column first,
+    # then the left, then the right one on a tie), until a fresh start.
+    while r > 0:
+        up = S[r - 1]
+        came = [(up[c], 0)]
+        if c > 0:
+            came.append((up[c - 1] - np.float32(pen), -1))
+        if c < C - 1:
+            came.append((up[c + 1] - np.float32(pen), 1))
+        m = max(v for v, _ in came)
+        if m <= 0:
+            break
+        c += next(d for v, d in came if v == m)
         r -= 1
         rows.append(int(r))
         cols.append(int(c))
