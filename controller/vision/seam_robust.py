@@ -17,9 +17,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy.ndimage import convolve1d
 
 from controller.vision.seam_ends import _border_crossing, end_offset
 from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
@@ -297,8 +297,9 @@ def _darkest(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, w: float,
     ker = np.exp(-0.5 * (kx / sig) ** 2)
     ker /= ker.sum()
     # Rows smoothed at once, the ends held (edge padding): the same as np.convolve on each padded
-    # row (the kernel is symmetric), without a Python call per row.
-    sm = convolve1d(prof, ker, axis=1, mode="nearest")
+    # row (the kernel is symmetric), without a Python call per row (and without scipy, whose
+    # import costs more than a detection: controller/vision/scipy_equivalents.py).
+    sm = cv2.filter2D(prof, cv2.CV_64F, ker[None, :], borderType=cv2.BORDER_REPLICATE)
     zone = np.abs(x) <= tol
     zi = np.flatnonzero(zone)
     j = zi[np.argmin(sm[:, zone], axis=1)]
