@@ -108,12 +108,12 @@ def _best_subpath(gain: NDArray[np.floating],
             np.maximum(prev[:-2], prev[2:], out=best[1:-1])
             best[0], best[-1] = prev[1], prev[-2]
             best -= pen32
+        else:
+            best[0] = -1e9  # one column: no neighbour
         np.maximum(best, prev, out=best)
         np.maximum(best, 0.0, out=best)
         np.add(best, gain[r], out=S[r])
         prev = S[r]
-        if C == 1:
-            best[0] = -1e9
     r0, c0 = np.unravel_index(int(np.argmax(S)), S.shape)
     r, c = int(r0), int(c0)
     score = float(S[r, c])
@@ -124,9 +124,9 @@ def _best_subpath(gain: NDArray[np.floating],
         up = S[r - 1]
         came = [(up[c], 0)]
         if c > 0:
-            came.append((up[c - 1] - np.float32(pen), -1))
+            came.append((up[c - 1] - pen32, -1))
         if c < C - 1:
-            came.append((up[c + 1] - np.float32(pen), 1))
+            came.append((up[c + 1] - pen32, 1))
         m = max(v for v, _ in came)
         if m <= 0:
             break
