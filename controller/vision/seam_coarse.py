@@ -9,6 +9,12 @@ strongest pixel per bin along the component's main axis (a crossing mark is left
 shorter than a seam (a faint gap dips under the threshold here and there) are joined when they
 continue each other across a short hole, long ones kept, and those joined again across a longer
 hole (glare, a dot on the seam).
+
+A hairline gap (1-2 px at 2272 px wide) covers under half a coarse pixel; where it straddles two
+of them each shows half its depth, under the threshold, and the valley falls apart. With ``fine``
+the depth is also computed on a finer grid (half the shrink factor) and pooled (max) onto the
+coarse one: the detector asks for that when the coarse grid gave no seam
+(tests/test_seam_hairline.py).
 """
 
 from __future__ import annotations
@@ -22,8 +28,8 @@ from numpy.typing import NDArray
 from controller.vision.seam_params import F64, Candidate, DetectParams
 
 
-def coarse_candidates(grey: NDArray[np.uint8], lut: F64,
-                      p: DetectParams) -> tuple[list[Candidate], int, NDArray[np.uint8], int]:
+def coarse_candidates(grey: NDArray[np.uint8], lut: F64, p: DetectParams, fine: bool = False
+                      ) -> tuple[list[Candidate], int, NDArray[np.uint8], int]:
     """Candidates in ``grey`` (strongest first) and how many long valley blobs were seen.
 
     Also returns the valley mask of the search image (uint8 0/1) and its shrink factor.
@@ -31,20 +37,17 @@ def coarse_candidates(grey: NDArray[np.uint8], lut: F64,
     H, W = grey.shape
     f = p.coarse_factor or max(1, min(6, int(round(W / 560))),
                                int(np.ceil(p.valley_r_px / p.valley_r_coarse)))
-    small = grey if f == 1 else cv2.resize(grey, (W // f, H // f), interpolation=cv2.INTER_AREA)
-    # No smoothing: a thin gap is at most a pixel wide here and blurring halves its depth.
-    img = lut.astype(np.float32)[small]
-    r = p.valley_r_coarse
-    rd = max(1, int(round(r / np.sqrt(2))))
-    best = np.zeros_like(img)
-    pad = cv2.copyMakeBorder(img, r, r, r, r, cv2.BORDER_REPLICATE)
-    h, w = img.shape
-    for dy, dx in ((0, r), (r, 0), (rd, rd), (rd, -rd)):
-        a = pad[r + dy:r + dy + h, r + dx:r + dx + w]
-        b = pad[r - dy:r - dy + h, r - dx:r - dx + w]
-        side = np.minimum(a, b)
-        depth = (side - img) / (side + 0.01)
-        np.maximum(best, depth, out=best)
+    best = _valley_depth(grey, lut, f, p.valley_r_coarse)
+    f2 = max(k for k in range(1, f) if f % k == 0) if f > 1 else f
+    if fine and f2 < f:
+        # A gap about one coarse px wide straddling two of them shows half its depth in each and
+        # falls apart into pieces: its depth on a finer grid (half the shrink factor, or full
+        # resolution for an odd one), pooled (max) onto this one.
+        finer = _valley_depth(grey, lut, f2, p.valley_r_coarse)
+        k = f // f2
+        h, w = best.shape
+        pooled = finer[:h * k, :w * k].reshape(h, k, w, k).max(axis=(1, 3))
+        np.maximum(best, pooled, out=best)
     mask = (best > p.min_depth).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     cands: list[Candidate] = []
@@ -69,6 +72,25 @@ def coarse_candidates(grey: NDArray[np.uint8], lut: F64,
     cands = _join_candidates(cands, p.join_px, 2.0 * f)
     cands.sort(key=lambda c: -c.coarse_score)
     return cands, n_long, mask, f
+
+
+def _valley_depth(grey: NDArray[np.uint8], lut: F64, f: int, r: int) -> NDArray[np.float32]:
+    """Relative valley depth (0..1, the most of four directions) on ``grey`` shrunk by ``f``."""
+    H, W = grey.shape
+    small = grey if f == 1 else cv2.resize(grey, (W // f, H // f), interpolation=cv2.INTER_AREA)
+    # No smoothing: a thin gap is at most a pixel wide here and blurring halves its depth.
+    img = lut.astype(np.float32)[small]
+    rd = max(1, int(round(r / np.sqrt(2))))
+    best = np.zeros_like(img)
+    pad = cv2.copyMakeBorder(img, r, r, r, r, cv2.BORDER_REPLICATE)
+    h, w = img.shape
+    for dy, dx in ((0, r), (r, 0), (rd, rd), (rd, -rd)):
+        a = pad[r + dy:r + dy + h, r + dx:r + dx + w]
+        b = pad[r - dy:r - dy + h, r - dx:r - dx + w]
+        side = np.minimum(a, b)
+        depth = (side - img) / (side + 0.01)
+        np.maximum(best, depth, out=best)
+    return best
 
 
 def _join_candidates(cands: list[Candidate], join_px: float,

@@ -30,6 +30,10 @@ joint's, so this looks for the *shape*, not for edges:
    (:mod:`controller.vision.seam_pattern`).
 5. **Decision**: no candidate that passes -> :class:`SeamNotFound`; two of similar strength ->
    :class:`AmbiguousSeam`; both carry what was seen in ``details``.
+6. **Second and third looks** when no candidate passes: the coarse search again with the valley
+   depth of a grid twice as fine pooled onto the coarse one (a hairline gap straddling two
+   coarse pixels shows half its depth in each and falls apart), keeping only lines at most a
+   coarse pixel wide; then the seam as a whole-image valley path (ragged, wide, covered gaps).
 
 The steps live in :mod:`controller.vision.seam_coarse` (1, 2),
 :mod:`controller.vision.seam_profiles` (3),
@@ -174,9 +178,48 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     if hint_arr is not None:
         hint_arr = hint_arr - [x0, y0]
     cands, seen, valleys, factor = coarse_candidates(sub, lut, p)
+    lines = functools.cache(lambda: straight_lines(valleys, factor, p))
+    cands = _refined(sub, lut, cands, lines, hint_arr, p)
+    details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
+    try:
+        best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
+    except SeamNotFound as first:
+        if not p.robust:
+            raise
+        try:
+            fine = _refined(sub, lut, coarse_candidates(sub, lut, p, fine=True)[0], lines,
+                            hint_arr, p)
+            for c in fine:
+                # The finer grid is for gaps about one coarse px wide; a wider line was seen
+                # on the coarse grid already (and refused there for what it is).
+                if not c.why_rejected and c.width is not None and \
+                        float(np.median(c.width)) > factor:
+                    c.why_rejected = (f"line {float(np.median(c.width)):.1f} px wide found only "
+                                      "on the finer search grid")
+            best, ratio, conf, reasons = choose(fine, p, details, (x0, y0))
+        except SeamNotFound:
+            pass
+        else:
+            return _detection(best, ratio, conf, reasons, fine, x0, y0)
+        # The gap is not the clean two-edge valley the profiles fit (ragged, wide, covered by
+        # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
+        pens = [c.points for c in cands if c.points is not None and "fades out" in c.why_rejected]
+        cands = robust_candidates(sub, lut, p, not_lines=pens)
+        mark_table_lines(cands, lines, p)
+        if hint_arr is not None:
+            cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
+        details["first_way"] = str(first)
+        best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
+        reasons.append("found as a whole-image valley path (the two-edge profile model did not "
+                       "fit the gap)")
+    return _detection(best, ratio, conf, reasons, cands, x0, y0)
+
+
+def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], lines: Any,
+             hint_arr: F64 | None, p: DetectParams) -> list[Candidate]:
+    """Coarse candidates refined (table lines set aside first, pieces of one seam once)."""
     # Lines of the table are set aside before refining, so that they do not use up the
     # candidates refined (max_candidates) nor make the joint look ambiguous.
-    lines = functools.cache(lambda: straight_lines(valleys, factor, p))
     mark_table_lines(cands, lines, p)
     table = [c for c in cands if c.why_rejected]
     cands = [c for c in cands if not c.why_rejected]
@@ -191,24 +234,12 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
             continue
         refine(sub, lut, c, p)
         done.append(c)
-    cands = drop_duplicates(done) + table
-    details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
-    try:
-        best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
-    except SeamNotFound as first:
-        if not p.robust:
-            raise
-        # The gap is not the clean two-edge valley the profiles fit (ragged, wide, covered by
-        # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
-        pens = [c.points for c in cands if c.points is not None and "fades out" in c.why_rejected]
-        cands = robust_candidates(sub, lut, p, not_lines=pens)
-        mark_table_lines(cands, lines, p)
-        if hint_arr is not None:
-            cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
-        details["first_way"] = str(first)
-        best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
-        reasons.append("found as a whole-image valley path (the two-edge profile model did not "
-                       "fit the gap)")
+    return drop_duplicates(done) + table
+
+
+def _detection(best: Candidate, ratio: float, conf: float, reasons: list[str],
+               cands: list[Candidate], x0: int, y0: int) -> SeamDetection:
+    """The chosen candidate as a :class:`SeamDetection` in full-image px, oriented."""
     assert best.points is not None and best.width is not None
     pts0 = best.points + [x0, y0]
     pts = orient(pts0)
@@ -225,6 +256,8 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     return SeamDetection(points_px=pts, confidence=conf, reasons=reasons,
                          endpoints_px=np.array([pts[0], pts[-1]]), width_px=width, stats=stats,
                          end_kinds=kinds, occluded_spans_px=spans_of(pts, bridged))
+
+
 
 
 def _as_grey(image: NDArray[Any]) -> NDArray[np.uint8]:
