@@ -187,8 +187,11 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         if not p.robust:
             raise
         try:
-            fine = _refined(sub, lut, coarse_candidates(sub, lut, p, fine=True)[0], lines,
-                            hint_arr, p)
+            # Only lines the coarse grid did not give are refined again; those it gave keep
+            # their verdicts (and stay rivals).
+            new = [c for c in coarse_candidates(sub, lut, p, fine=True)[0]
+                   if not any(share_near(c.polyline, k.polyline, 6.0) >= 0.8 for k in cands)]
+            fine = _refined(sub, lut, new, lines, hint_arr, p)
             for c in fine:
                 # The finer grid is for gaps about one coarse px wide; a wider line was seen
                 # on the coarse grid already (and refused there for what it is).
@@ -196,11 +199,11 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
                         float(np.median(c.width)) > factor:
                     c.why_rejected = (f"line {float(np.median(c.width)):.1f} px wide found only "
                                       "on the finer search grid")
-            best, ratio, conf, reasons = choose(fine, p, details, (x0, y0))
+            best, ratio, conf, reasons = choose(cands + fine, p, details, (x0, y0))
         except SeamNotFound:
             pass
         else:
-            return _detection(best, ratio, conf, reasons, fine, x0, y0)
+            return _detection(best, ratio, conf, reasons, cands + fine, x0, y0)
         # The gap is not the clean two-edge valley the profiles fit (ragged, wide, covered by
         # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
         pens = [c.points for c in cands if c.points is not None and "fades out" in c.why_rejected]
