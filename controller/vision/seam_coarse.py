@@ -12,8 +12,8 @@ hole (glare, a dot on the seam).
 
 A hairline gap (1-2 px at 2272 px wide) covers under half a coarse pixel; where it straddles two
 of them each shows half its depth, under the threshold, and the valley falls apart. With ``fine``
-the depth is also computed on a finer grid (half the shrink factor) and pooled (max) onto the
-coarse one: the detector asks for that when the coarse grid gave no seam
+the depth is also computed on a grid twice as fine and pooled (max) onto the coarse
+one: the detector asks for that when the coarse grid gave no seam
 (tests/test_seam_hairline.py).
 """
 
@@ -37,17 +37,13 @@ def coarse_candidates(grey: NDArray[np.uint8], lut: F64, p: DetectParams, fine: 
     H, W = grey.shape
     f = p.coarse_factor or max(1, min(6, int(round(W / 560))),
                                int(np.ceil(p.valley_r_px / p.valley_r_coarse)))
-    best = _valley_depth(grey, lut, f, p.valley_r_coarse)
-    f2 = max(k for k in range(1, f) if f % k == 0) if f > 1 else f
-    if fine and f2 < f:
+    best = _valley_depth(grey, lut, (W // f, H // f), p.valley_r_coarse)
+    if fine and f > 1:
         # A gap about one coarse px wide straddling two of them shows half its depth in each and
-        # falls apart into pieces: its depth on a finer grid (half the shrink factor, or full
-        # resolution for an odd one), pooled (max) onto this one.
-        finer = _valley_depth(grey, lut, f2, p.valley_r_coarse)
-        k = f // f2
+        # falls apart into pieces: its depth on a grid twice as fine, pooled (max) onto this one.
         h, w = best.shape
-        pooled = finer[:h * k, :w * k].reshape(h, k, w, k).max(axis=(1, 3))
-        np.maximum(best, pooled, out=best)
+        finer = _valley_depth(grey, lut, (2 * w, 2 * h), p.valley_r_coarse)
+        np.maximum(best, finer.reshape(h, 2, w, 2).max(axis=(1, 3)), out=best)
     mask = (best > p.min_depth).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     cands: list[Candidate] = []
@@ -74,10 +70,11 @@ def coarse_candidates(grey: NDArray[np.uint8], lut: F64, p: DetectParams, fine: 
     return cands, n_long, mask, f
 
 
-def _valley_depth(grey: NDArray[np.uint8], lut: F64, f: int, r: int) -> NDArray[np.float32]:
-    """Relative valley depth (0..1, the most of four directions) on ``grey`` shrunk by ``f``."""
+def _valley_depth(grey: NDArray[np.uint8], lut: F64, size: tuple[int, int],
+                  r: int) -> NDArray[np.float32]:
+    """Relative valley depth (0..1, most of four directions) of ``grey`` box-shrunk to ``size``."""
     H, W = grey.shape
-    small = grey if f == 1 else cv2.resize(grey, (W // f, H // f), interpolation=cv2.INTER_AREA)
+    small = grey if size == (W, H) else cv2.resize(grey, size, interpolation=cv2.INTER_AREA)
     # No smoothing: a thin gap is at most a pixel wide here and blurring halves its depth.
     img = lut.astype(np.float32)[small]
     rd = max(1, int(round(r / np.sqrt(2))))

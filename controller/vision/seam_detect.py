@@ -189,8 +189,10 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         try:
             # Only lines the coarse grid did not give are refined again; those it gave keep
             # their verdicts (and stay rivals).
+            seen_lines = [k.polyline for k in cands] + [k.points for k in cands
+                                                        if k.points is not None]
             new = [c for c in coarse_candidates(sub, lut, p, fine=True)[0]
-                   if not any(share_near(c.polyline, k.polyline, 6.0) >= 0.8 for k in cands)]
+                   if not any(share_near(c.polyline, q, 6.0) >= 0.8 for q in seen_lines)]
             fine = _refined(sub, lut, new, lines, hint_arr, p)
             for c in fine:
                 # The finer grid is for gaps about one coarse px wide; a wider line was seen
