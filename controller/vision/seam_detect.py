@@ -186,26 +186,13 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     except SeamNotFound as first:
         if not p.robust:
             raise
+        both = cands + _hairline_look(sub, lut, cands, lines, hint_arr, factor, p)
         try:
-            # Only lines the coarse grid did not give are refined again; those it gave keep
-            # their verdicts (and stay rivals).
-            seen_lines = [k.polyline for k in cands] + [k.points for k in cands
-                                                        if k.points is not None]
-            new = [c for c in coarse_candidates(sub, lut, p, fine=True)[0]
-                   if not any(share_near(c.polyline, q, 6.0) >= 0.8 for q in seen_lines)]
-            fine = _refined(sub, lut, new, lines, hint_arr, p)
-            for c in fine:
-                # The finer grid is for gaps about one coarse px wide; a wider line was seen
-                # on the coarse grid already (and refused there for what it is).
-                if not c.why_rejected and c.width is not None and \
-                        float(np.median(c.width)) > factor:
-                    c.why_rejected = (f"line {float(np.median(c.width)):.1f} px wide found only "
-                                      "on the finer search grid")
-            best, ratio, conf, reasons = choose(cands + fine, p, details, (x0, y0))
+            best, ratio, conf, reasons = choose(both, p, details, (x0, y0))
         except SeamNotFound:
             pass
         else:
-            return _detection(best, ratio, conf, reasons, cands + fine, x0, y0)
+            return _detection(best, ratio, conf, reasons, both, x0, y0)
         # The gap is not the clean two-edge valley the profiles fit (ragged, wide, covered by
         # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
         pens = [c.points for c in cands if c.points is not None and "fades out" in c.why_rejected]
@@ -242,6 +229,25 @@ def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], lines: An
     return drop_duplicates(done) + table
 
 
+def _hairline_look(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], lines: Any,
+                   hint_arr: F64 | None, factor: int, p: DetectParams) -> list[Candidate]:
+    """The lines a grid twice as fine gives that the coarse one (``cands``) did not, refined.
+
+    Those the coarse grid gave keep their verdicts (and stay rivals) and are not refined again.
+    A line wider than a coarse pixel is refused: the finer grid is for gaps about one coarse
+    pixel wide; a wider line was seen on the coarse grid already and refused there.
+    """
+    seen_lines = [k.polyline for k in cands] + [k.points for k in cands if k.points is not None]
+    new = [c for c in coarse_candidates(sub, lut, p, fine=True)[0]
+           if not any(share_near(c.polyline, q, 6.0) >= 0.8 for q in seen_lines)]
+    fine = _refined(sub, lut, new, lines, hint_arr, p)
+    for c in fine:
+        if not c.why_rejected and c.width is not None and float(np.median(c.width)) > factor:
+            c.why_rejected = (f"line {float(np.median(c.width)):.1f} px wide found only on the "
+                              "finer search grid")
+    return fine
+
+
 def _detection(best: Candidate, ratio: float, conf: float, reasons: list[str],
                cands: list[Candidate], x0: int, y0: int) -> SeamDetection:
     """The chosen candidate as a :class:`SeamDetection` in full-image px, oriented."""
@@ -261,8 +267,6 @@ def _detection(best: Candidate, ratio: float, conf: float, reasons: list[str],
     return SeamDetection(points_px=pts, confidence=conf, reasons=reasons,
                          endpoints_px=np.array([pts[0], pts[-1]]), width_px=width, stats=stats,
                          end_kinds=kinds, occluded_spans_px=spans_of(pts, bridged))
-
-
 
 
 def _as_grey(image: NDArray[Any]) -> NDArray[np.uint8]:
