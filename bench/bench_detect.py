@@ -174,6 +174,27 @@ def reliability(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+def by_look(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
+    """Our single views of the wide and pen sets per look family and part: found, refused, wrong.
+
+    The family is the scene's look (``plain``, ``shop``: the photographs' imitation with tack
+    welds, ground strips and rust, ``closeup``: dark defocused close-ups), so that a look the
+    detector fails on shows however the difficulties mix it.
+    """
+    out: dict[str, dict[str, int]] = {}
+    for key, rs in rows.items():
+        if key.startswith("classic"):
+            continue
+        part = key.rsplit("/", 1)[-1]
+        for r in rs:
+            cell = out.setdefault(f"{r['family']}/{part}",
+                                  {"views": 0, "found": 0, "refused": 0, "wrong": 0, "crash": 0})
+            for v in r["views"]:
+                cell["views"] += 1
+                cell[v["ours"]["result"]] += 1
+    return dict(sorted(out.items()))
+
+
 def timing(images: list[np.ndarray], runs: int, cam: Any) -> dict[str, Any]:
     """Median ms of ours, the published port and cv2.Canny on the same images, alternating."""
     greys = [im if im.ndim == 2 else cv2.cvtColor(im, cv2.COLOR_BGR2GRAY) for im in images]
@@ -261,6 +282,7 @@ def main(argv: list[str] | None = None) -> int:
                                             if key.endswith(split) and
                                             not key.startswith("classic")])
                         for split in splits},
+        "by_look": by_look(rows),
         "rows": rows}
     timing_imgs = [load_case(g[0])[0][0] for g in groups.values() if g][:6]
     report["timing"] = timing(timing_imgs, args.timing_runs, cam)
@@ -308,6 +330,12 @@ def markdown(rep: dict[str, Any]) -> str:
             b = rep["reliability"][split][i]
             cells.append(f"{b['found']}/{b['n']} found, {b['wrong']} wrong" if b["n"] else "-")
         lines.append(f"| {lo_hi:.2f}-{min(BINS[i + 1], 1.0):.2f} | " + " | ".join(cells) + " |")
+    if rep.get("by_look"):
+        lines += ["", "Ours per look (single views of the wide and pen sets):", "",
+                  "| look / part | views | found | refused | wrong |", "|---|---|---|---|---|"]
+        for key, c in rep["by_look"].items():
+            lines.append(f"| {key} | {c['views']} | {pct(c['found'], c['views'])} | "
+                         f"{c['refused']} | {c['wrong']} |")
     t = rep["timing"]
     lines += ["", f"Time per 2272x1704 image ({t['images']} images x {t['runs']} runs, the three "
               f"alternating): ours {t['ours_ms']:.1f} ms = **{t['ours_over_canny']:.2f} x "
