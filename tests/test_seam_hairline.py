@@ -45,4 +45,3 @@ def test_a_hairline_gap_lost_on_the_coarse_grid_is_found_on_the_finer_one(width_
     assert det.end_kinds == ("image_border", "image_border")
     assert det.stats["way"] == "profiles"
     assert det.points_px[:, 0].min() < 20 and det.points_px[:, 0].max() > 2250
-

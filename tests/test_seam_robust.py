@@ -53,7 +53,6 @@ def test_best_subpath_bridges_a_covered_stretch_and_stops_at_the_ends():
     assert score == pytest.approx(140 * 0.5 - 20 * 0.1, abs=1e-3)
 
 
-
 def _best_subpath_by_search(gain, pen):
     """The best path's total gain by exhaustive search (every start, every step): the reference."""
     R, C = gain.shape
@@ -85,6 +84,7 @@ def test_best_subpath_is_the_best_of_all_paths_and_its_steps_add_up():
         assert np.all(np.diff(rows) == 1) and np.all(np.abs(np.diff(cols)) <= 1)
         walked = float(gain[rows, cols].sum()) - pen * int(np.count_nonzero(np.diff(cols)))
         assert walked == pytest.approx(score, abs=1e-4)
+
 
 def test_a_wide_ragged_gap_under_tack_welds_is_bridged_and_reported_occluded():
     img, xx, yy, xc = _sheets()
