@@ -109,7 +109,22 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     delta = w_med / 2 + 2.5
     offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
     steps = [_side_crossings(grey, lut, q + o * nrm, ks) for o in offs]
-    k_line, unsure = _border_line(offs, steps)
+    k_line, unsure = _border_line(offs, steps, w_med)
+    if steps[1] and steps[3] and not (steps[0] and steps[4]):
+        # Both inner lines leave their sheets but an outer one does not in the window: rounded
+        # corners of a large radius recede slowly, the outer lines are looked along further,
+        # for that reading only (any step further on taken as a border cost wrong seams) and
+        # only if the two sheets recede alike (a tack weld's edge beyond a step on one side of
+        # the seam, seen on a real photograph, does not).
+        kf = np.arange(-28.0, 48.01, 0.5)
+        far = [_side_crossings(grey, lut, e_pt + np.outer(kf, tang) + o * nrm, kf)
+               for o in (offs[0], offs[4])]
+        if far[0] and far[1]:
+            recede = sorted((far[0][0] - steps[1][0], far[1][0] - steps[3][0]))
+            k_round = (_rounded_corners(offs, [far[0], steps[1], steps[2], steps[3], far[1]],
+                                        w_med) if recede[1] <= 2.0 * recede[0] + 6.0 else None)
+            if k_round is not None:
+                k_line, unsure = k_round, False
     k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
     kind = "unsure sheet border" if unsure else "sheet border"
     if k_line is not None:
@@ -265,8 +280,8 @@ def _resume_fit(grey: NDArray[np.uint8], lut: F64, end_pt: F64, dirs: list[F64],
     return ok.reshape(len(dirs), len(ks)), fit["centre"].reshape(len(dirs), len(ks), 2)
 
 
-def _border_line(offs: tuple[float, ...],
-                 steps: list[list[float]]) -> tuple[float | None, bool]:
+def _border_line(offs: tuple[float, ...], steps: list[list[float]],
+                 w: float | None = None) -> tuple[float | None, bool]:
     """Distance along the seam at which a straight border through the steps meets the centreline.
 
     ``steps[i]`` are the step positions found on the line at offset ``offs[i]`` across the seam,
@@ -278,7 +293,12 @@ def _border_line(offs: tuple[float, ...],
     steps the sheet continues on both sides (the end of a pen line inside a sheet).
     Also says whether the end is unsure: the winner is seen on two lines only and another line
     seen on as many crosses the seam more than 3 px away (a mark meeting the seam at the border
-    can do that; the inner one is then no better a guess than the other).
+    can do that; the inner one is then no better a guess than the other). Where the best line
+    is seen on fewer than four lines and the steps are those of two rounded plate corners, the
+    end is read as such instead (:func:`_rounded_corners`, with the gap's width ``w``): three
+    steps of a curved border can lie on a line by chance, a line through them says nothing
+    about where the gap opens. (Four or more agreeing: a straight border, whose steps on the
+    inner lines a ragged edge can move by its jag.)
     """
     firsts = [(o, s[0]) for o, s in zip(offs, steps, strict=True) if s]
     best: tuple[int, float] | None = None  # (-agreeing lines, k at the centreline)
@@ -297,11 +317,45 @@ def _border_line(offs: tuple[float, ...],
                 best = (-len(sel), k0)
     if best is not None:
         rivals = [k for n, k in fits if n == best[0] and abs(k - best[1]) > 3.0]
+        k_round = _rounded_corners(offs, steps, w) if w is not None and best[0] > -4 else None
+        if k_round is not None:
+            return k_round, False
         return best[1], best[0] == -2 and bool(rivals)
     # Only the centreline steps: the dark line ends but the sheet goes on beside it on both
     # sides. That is how a pen or soapstone line or a scratch ends inside a sheet; a joint ends
     # where a sheet does. Not an end (the caller calls it open).
     return None, False
+
+
+def _rounded_corners(offs: tuple[float, ...], steps: list[list[float]], w: float) -> float | None:
+    """Where the gap (``w`` px wide) has opened to twice its width between two rounded corners.
+
+    ``offs`` are (-2d, -d, 0, d, 2d) as in :func:`end_offset`. Where both sheets end in a
+    rounded corner the border is no straight line: each sheet's edge curves away from the gap,
+    so on each side the line nearer the gap leaves its sheet first and the outer one later. The
+    sheets stop facing each other where the gap is twice its width, i.e. where each edge has
+    receded by ``w / 2``: the line at offset ``w`` would step there. On each side that point
+    is read from the two lines' steps; the end is the mean of the two sides.
+    A straight border gives the same point as the line through its steps (its crossings are
+    linear in the offset, and the two sides' deviations cancel). Returns None unless the four
+    side lines all step and on both sides the outer line steps more than 1.5 px after the
+    inner one (a straight border across the seam recedes on one side only, if at all).
+    """
+    firsts = {o: s[0] for o, s in zip(offs, steps, strict=True) if s}
+    ks = []
+    for inner, outer in ((offs[1], offs[0]), (offs[3], offs[4])):
+        if inner not in firsts or outer not in firsts or firsts[outer] <= firsts[inner] + 1.5:
+            return None
+        # How far the edge has receded from the gap at each line, and at the end (w / 2). Near
+        # where it starts to curve away a rounded edge recedes as the square of the distance
+        # along (a circle of radius r: by u^2 / 2r): the distance goes as the root of the recess.
+        a_in, a_out = abs(inner) - w / 2, abs(outer) - w / 2
+        # (A gap narrower than 5 px has opened to twice its width before the inner line
+        # leaves its sheet: read back from the two steps by the same law.)
+        t = float(np.clip((np.sqrt(w / 2) - np.sqrt(a_in)) / (np.sqrt(a_out) - np.sqrt(a_in)),
+                          -1.0, 1.0))
+        ks.append(firsts[inner] + t * (firsts[outer] - firsts[inner]))
+    return float(np.mean(ks))
 
 
 def _continues(run: F64, end_pt: F64, tang: F64) -> bool:
