@@ -110,21 +110,6 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
     steps = [_side_crossings(grey, lut, q + o * nrm, ks) for o in offs]
     k_line, unsure = _border_line(offs, steps, w_med)
-    if steps[1] and steps[3] and not (steps[0] and steps[4]):
-        # Both inner lines leave their sheets but an outer one does not in the window: rounded
-        # corners of a large radius recede slowly, the outer lines are looked along further,
-        # for that reading only (any step further on taken as a border cost wrong seams) and
-        # only if the two sheets recede alike (a tack weld's edge beyond a step on one side of
-        # the seam, seen on a real photograph, does not).
-        kf = np.arange(-28.0, 48.01, 0.5)
-        far = [_side_crossings(grey, lut, e_pt + np.outer(kf, tang) + o * nrm, kf)
-               for o in (offs[0], offs[4])]
-        if far[0] and far[1]:
-            recede = sorted((far[0][0] - steps[1][0], far[1][0] - steps[3][0]))
-            k_round = (_rounded_corners(offs, [far[0], steps[1], steps[2], steps[3], far[1]],
-                                        w_med) if recede[1] <= 2.0 * recede[0] + 6.0 else None)
-            if k_round is not None:
-                k_line, unsure = k_round, False
     k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
     kind = "unsure sheet border" if unsure else "sheet border"
     if k_line is not None:
