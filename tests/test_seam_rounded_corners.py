@@ -55,7 +55,7 @@ def test_the_end_between_two_rounded_corners_is_where_the_gap_has_opened(gap, ra
     assert det.end_kinds == ("joint_end", "joint_end") and det.confidence >= 0.5
 
 
-def test_a_straight_border_reads_the_same_as_two_rounded_corners_would():
+def test_two_receding_edges_are_read_as_rounded_corners_a_straight_border_as_its_line():
     # Steps on the lines at offsets (-2d, -d, 0, d, 2d): each sheet receding from the gap toward
     # the border (the outer line steps later) is read as two rounded corners; a straight oblique
     # border (one side recedes, the other advances) as the line through its steps.

@@ -320,11 +320,10 @@ def _rounded_corners(offs: tuple[float, ...], steps: list[list[float]], w: float
     so on each side the line nearer the gap leaves its sheet first and the outer one later. The
     sheets stop facing each other where the gap is twice its width, i.e. where each edge has
     receded by ``w / 2``: the line at offset ``w`` would step there. On each side that point
-    is read from the two lines' steps; the end is the mean of the two sides.
-    A straight border gives the same point as the line through its steps (its crossings are
-    linear in the offset, and the two sides' deviations cancel). Returns None unless the four
-    side lines all step and on both sides the outer line steps more than 1.5 px after the
-    inner one (a straight border across the seam recedes on one side only, if at all).
+    is read from the two lines' steps; the end is the mean of the two sides. Returns None
+    unless the four side lines all step and on both sides the outer line steps more than
+    1.5 px after the inner one (a straight border across the seam recedes on one side only,
+    if at all: it is read as the line through its steps).
     """
     firsts = {o: s[0] for o, s in zip(offs, steps, strict=True) if s}
     ks = []
