@@ -194,18 +194,18 @@ def test_cli_detect(tmp_path, cases, capsys):
 
 
 def test_an_end_between_two_equally_supported_border_lines_is_unsure():
-    from controller.vision.seam_ends import _border_line
+    from controller.vision.seam_border import border_line
 
     offs = (-9.7, -4.9, 0.0, 4.9, 9.7)
     # Five lines agree on one border: sure.
-    k, unsure = _border_line(offs, [[3.0], [3.0], [3.0], [3.0], [3.0]])
+    k, unsure = border_line(offs, [[3.0], [3.0], [3.0], [3.0], [3.0]])
     assert k == pytest.approx(3.0) and not unsure
     # Two lines see a border at 15.9 px, the centreline and one of them another at 11.4 px (a
     # mark meeting the seam at the border): the inner one is taken, but it is unsure.
-    k, unsure = _border_line(offs, [[15.9], [15.9], [11.4], [], []])
+    k, unsure = border_line(offs, [[15.9], [15.9], [11.4], [], []])
     assert k == pytest.approx(11.4) and unsure
     # Three lines against two: the three win, sure enough.
-    k, unsure = _border_line(offs, [[2.0], [2.0], [2.0], [10.4], [10.4]])
+    k, unsure = border_line(offs, [[2.0], [2.0], [2.0], [10.4], [10.4]])
     assert k == pytest.approx(2.0) and not unsure
 
 

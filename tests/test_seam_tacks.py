@@ -64,7 +64,7 @@ def test_the_far_side_of_a_dot_beside_a_tack_is_not_a_sheet_border() -> None:
     # (pitting, a marker dot) 6 px across. Read from inside the dot, its far side steps up
     # sharply and for good: before, that alone made the tack weld a sheet end. The sheet's
     # real border further on is still a step.
-    from controller.vision.seam_ends import _side_crossings
+    from controller.vision.seam_border import side_crossings
     from controller.vision.seam_profiles import linear_lut
 
     lut = linear_lut(1.0)
@@ -73,10 +73,10 @@ def test_the_far_side_of_a_dot_beside_a_tack_is_not_a_sheet_border() -> None:
     x0 = 40.0  # ks = 0 at column 40; the line runs along row 20
     grey[17:24, int(x0 + 8):int(x0 + 14)] = 90  # the dot: ks 8-14
     ps = np.column_stack([x0 + ks, np.full(len(ks), 20.0)])
-    assert _side_crossings(grey, lut, ps, ks, entered=True) == []
-    assert len(_side_crossings(grey, lut, ps, ks)) == 1  # as read for the border line at the end
+    assert side_crossings(grey, lut, ps, ks, entered=True) == []
+    assert len(side_crossings(grey, lut, ps, ks)) == 1  # as read for the border line at the end
     border = grey.copy()
     border[:, int(x0 + 40):] = 60  # the sheet ends at ks = 40: still a border, both ways
     for entered in (True, False):
-        steps = _side_crossings(border, lut, ps, ks, entered=entered)
+        steps = side_crossings(border, lut, ps, ks, entered=entered)
         assert steps and abs(steps[-1] - 39.5) < 1.5

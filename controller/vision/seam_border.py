@@ -1,0 +1,164 @@
+"""Where a sheet border crosses lines beside the seam, and where it meets the seam.
+
+:func:`side_crossings` finds the sharp, lasting brightness steps along one line;
+:func:`border_line` takes the first step on each of five lines parallel to the seam and reads
+where the border meets the centreline: a straight border (the line through the most steps) or,
+where both sheets' edges curve away from the gap, two rounded plate corners
+(:func:`rounded_corners`). Used by :mod:`controller.vision.seam_ends` at each end of the seam.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from controller.vision.seam_params import F64
+from controller.vision.seam_profiles import bilinear
+
+_MIN_STEP = 0.25  # relative brightness step that marks a sheet border
+
+
+def border_line(offs: tuple[float, ...], steps: list[list[float]],
+                 w: float | None = None) -> tuple[float | None, bool]:
+    """Distance along the seam at which a straight border through the steps meets the centreline.
+
+    ``steps[i]`` are the step positions found on the line at offset ``offs[i]`` across the seam,
+    inner first; the first one on each line is where that line leaves its sheet, unless the
+    sheet and the table look alike there (then it is something beyond, such as a table hole).
+    Every pair of first steps defines a border line (crossing the seam at 15 degrees or more);
+    the one most lines agree with (within 1.5 px) wins, the inner one on a tie, and is fitted
+    to them. A lone step, seen on one line only, is no border: where only the centreline
+    steps the sheet continues on both sides (the end of a pen line inside a sheet).
+    Also says whether the end is unsure: the winner is seen on two lines only and another line
+    seen on as many crosses the seam more than 3 px away (a mark meeting the seam at the border
+    can do that; the inner one is then no better a guess than the other). Where the best line
+    is seen on fewer than four lines and the steps are those of two rounded plate corners, the
+    end is read as such instead (:func:`rounded_corners`, with the gap's width ``w``): three
+    steps of a curved border can lie on a line by chance, a line through them says nothing
+    about where the gap opens. (Four or more agreeing: a straight border, whose steps on the
+    inner lines a ragged edge can move by its jag.)
+    """
+    firsts = [(o, s[0]) for o, s in zip(offs, steps, strict=True) if s]
+    best: tuple[int, float] | None = None  # (-agreeing lines, k at the centreline)
+    fits: list[tuple[int, float]] = []
+    for i in range(len(firsts)):
+        for j in range(i + 1, len(firsts)):
+            (oa, ka), (ob, kb) = firsts[i], firsts[j]
+            s = (kb - ka) / (ob - oa)
+            if abs(s) > 3.7:
+                continue
+            sel = [(o, k) for o, k in firsts if abs(k - ka - s * (o - oa)) <= 1.5]
+            o_arr, k_arr = np.array(sel).T
+            k0 = float(np.polyfit(o_arr, k_arr, 1)[1])
+            fits.append((-len(sel), k0))
+            if best is None or (-len(sel), k0) < best:
+                best = (-len(sel), k0)
+    if best is not None:
+        rivals = [k for n, k in fits if n == best[0] and abs(k - best[1]) > 3.0]
+        k_round = rounded_corners(offs, steps, w) if w is not None and best[0] > -4 else None
+        if k_round is not None:
+            return k_round, False
+        return best[1], best[0] == -2 and bool(rivals)
+    # Only the centreline steps: the dark line ends but the sheet goes on beside it on both
+    # sides. That is how a pen or soapstone line or a scratch ends inside a sheet; a joint ends
+    # where a sheet does. Not an end (the caller calls it open).
+    return None, False
+
+
+def rounded_corners(offs: tuple[float, ...], steps: list[list[float]], w: float) -> float | None:
+    """Where the gap (``w`` px wide) has opened to twice its width between two rounded corners.
+
+    ``offs`` are (-2d, -d, 0, d, 2d) as in :func:`controller.vision.seam_ends.end_offset`.
+    Where both sheets end in a rounded corner the border is no straight line: each sheet's
+    edge curves away from the gap, so on each side the line nearer the gap leaves its sheet
+    first and the outer one later. The sheets stop facing each other where the gap is twice
+    its width, i.e. where each edge has receded by ``w / 2``: the line at offset ``w`` would
+    step there. On each side that point is read from the two lines' steps; the end is the mean
+    of the two sides. Returns None
+    unless the four side lines all step and on both sides the outer line steps more than
+    1.5 px after the inner one (a straight border across the seam recedes on one side only,
+    if at all: it is read as the line through its steps).
+    """
+    firsts = {o: s[0] for o, s in zip(offs, steps, strict=True) if s}
+    ks = []
+    for inner, outer in ((offs[1], offs[0]), (offs[3], offs[4])):
+        if inner not in firsts or outer not in firsts or firsts[outer] <= firsts[inner] + 1.5:
+            return None
+        # How far the edge has receded from the gap at each line, and at the end (w / 2). Near
+        # where it starts to curve away a rounded edge recedes as the square of the distance
+        # along (a circle of radius r: by u^2 / 2r): the distance goes as the root of the recess.
+        a_in, a_out = abs(inner) - w / 2, abs(outer) - w / 2
+        # (A gap narrower than 5 px has opened to twice its width before the inner line
+        # leaves its sheet: read back from the two steps by the same law.)
+        t = float(np.clip((np.sqrt(w / 2) - np.sqrt(a_in)) / (np.sqrt(a_out) - np.sqrt(a_in)),
+                          -1.0, 1.0))
+        ks.append(firsts[inner] + t * (firsts[outer] - firsts[inner]))
+    return float(np.mean(ks))
+
+
+def side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
+                    entered: bool = False) -> list[float]:
+    """Where the brightness along the line ``ps`` (at offsets ``ks``) steps sharply and lastingly.
+
+    From well inside the sheet (``ks > -14``) outward: a step is where the median brightness
+    over the next 6 px differs from the median over the last 6 px by at least 25 %. A dark
+    scratch or a texture stripe is a dip too narrow to move a median, and a gradual change of
+    light moves it too slowly. Each step is placed where the brightness passes half-way between
+    the two levels, and must be sharp (a few pixels of blur). All steps are returned, inner
+    first: which one is the sheet border is decided across lines (:func:`border_line`).
+    ``entered``: also drop the far side of a dip (the line was at the outer level just before).
+    """
+    val, inside = bilinear(grey, lut, ps[:, 0], ps[:, 1])
+    val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
+    # Only samples inside the image count (outside, the border pixels are repeated).
+    lim = int(np.argmin(inside)) if not inside.all() else len(ks)
+    n_in = int(np.sum(ks <= -14))
+    hold = 12  # samples (6 px) on each side of a step
+    if n_in < hold or lim - n_in < hold + 2:
+        return []
+    win = np.lib.stride_tricks.sliding_window_view(val[:lim], hold)
+    med = np.median(win, axis=1)  # med[i]: median of val[i:i + hold]
+    js = np.arange(n_in, lim - hold + 1)
+    behind, ahead = med[js - hold], med[js]
+    step = np.abs(ahead - behind)
+    big = np.concatenate([[0], (step > _MIN_STEP * np.maximum(np.maximum(behind, ahead), 1e-6))
+                          .astype(np.int8), [0]])
+    out: list[float] = []
+    for g0, g1 in zip(np.flatnonzero(np.diff(big) == 1), np.flatnonzero(np.diff(big) == -1),
+                      strict=True):
+        jj = int(g0) + int(np.argmax(step[g0:g1]))
+        j = int(js[jj])
+        lvl_in, lvl_out = float(behind[jj]), float(ahead[jj])
+        half = 0.5 * (lvl_in + lvl_out)
+        sgn = np.sign(lvl_in - half)
+        on_in = sgn * (val - half) > 0
+        # The half-level crossing nearest j: back to the last sample on the inner side, or on
+        # to the first one past it.
+        k = j
+        if on_in[k]:
+            while k + 1 < lim and on_in[k + 1]:
+                k += 1
+        else:
+            while k > 0 and not on_in[k]:
+                k -= 1
+            if not on_in[k]:
+                continue
+        if k + 1 >= lim:
+            continue
+        amp = abs(lvl_in - half)
+        lo_i, hi_i = max(k - 7, 0), min(k + 8, lim - 1)
+        if sgn * (val[lo_i] - half) < 0.25 * amp or sgn * (val[hi_i] - half) > -0.25 * amp:
+            continue
+        # Off the sheet for good: the brightness never comes back past half-way (a dot or a
+        # glare band on the sheet is left again; the table beyond a border is not).
+        if np.any(sgn * (val[k + 2:lim] - half) > 0.2 * amp):
+            continue
+        # The way out of a dot read from inside it; not asked for at the seam's end (there it
+        # cost a real photograph).
+        if entered and np.any(
+                sgn * (val[max(k - hold - 16, 0):max(k - hold, 0)] - half) < -0.5 * amp):
+            continue
+        v0, v1 = val[k], val[k + 1]
+        frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
+        out.append(float(ks[k] + frac * (ks[k + 1] - ks[k])))
+    return out
