@@ -9,8 +9,8 @@ import pytest
 from shared_data import needs, shared_data_dir
 
 from controller.errors import AmbiguousSeam, SeamNotFound
-from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_border import border_line
+from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_params import DetectParams
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import _bent_bridge, robust_candidates

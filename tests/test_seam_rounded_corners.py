@@ -10,8 +10,8 @@ import cv2
 import numpy as np
 import pytest
 
-from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_border import border_line
+from controller.vision.seam_detect import detect_seam
 
 S = 4  # supersampling
 
