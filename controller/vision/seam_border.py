@@ -19,7 +19,7 @@ _MIN_STEP = 0.25  # relative brightness step that marks a sheet border
 
 
 def border_line(offs: tuple[float, ...], steps: list[list[float]],
-                 w: float | None = None) -> tuple[float | None, bool]:
+                w: float | None = None) -> tuple[float | None, bool]:
     """Distance along the seam at which a straight border through the steps meets the centreline.
 
     ``steps[i]`` are the step positions found on the line at offset ``offs[i]`` across the seam,
@@ -54,10 +54,10 @@ def border_line(offs: tuple[float, ...], steps: list[list[float]],
             if best is None or (-len(sel), k0) < best:
                 best = (-len(sel), k0)
     if best is not None:
-        rivals = [k for n, k in fits if n == best[0] and abs(k - best[1]) > 3.0]
         k_round = rounded_corners(offs, steps, w) if w is not None and best[0] > -4 else None
         if k_round is not None:
             return k_round, False
+        rivals = [k for n, k in fits if n == best[0] and abs(k - best[1]) > 3.0]
         return best[1], best[0] == -2 and bool(rivals)
     # Only the centreline steps: the dark line ends but the sheet goes on beside it on both
     # sides. That is how a pen or soapstone line or a scratch ends inside a sheet; a joint ends
@@ -74,10 +74,9 @@ def rounded_corners(offs: tuple[float, ...], steps: list[list[float]], w: float)
     first and the outer one later. The sheets stop facing each other where the gap is twice
     its width, i.e. where each edge has receded by ``w / 2``: the line at offset ``w`` would
     step there. On each side that point is read from the two lines' steps; the end is the mean
-    of the two sides. Returns None
-    unless the four side lines all step and on both sides the outer line steps more than
-    1.5 px after the inner one (a straight border across the seam recedes on one side only,
-    if at all: it is read as the line through its steps).
+    of the two sides. Returns None unless the four side lines all step and on both sides the
+    outer line steps more than 1.5 px after the inner one (a straight border across the seam
+    recedes on one side only, if at all: it is read as the line through its steps).
     """
     firsts = {o: s[0] for o, s in zip(offs, steps, strict=True) if s}
     ks = []
@@ -97,7 +96,7 @@ def rounded_corners(offs: tuple[float, ...], steps: list[list[float]], w: float)
 
 
 def side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
-                    entered: bool = False) -> list[float]:
+                   entered: bool = False) -> list[float]:
     """Where the brightness along the line ``ps`` (at offsets ``ks``) steps sharply and lastingly.
 
     From well inside the sheet (``ks > -14``) outward: a step is where the median brightness

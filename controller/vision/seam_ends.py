@@ -164,7 +164,7 @@ def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
         # A step needs 20 px of image after it to be seen to last.
         room = _border_crossing(start, tang, W, H, float(ks[-1])) - 20.0
         if any(k < room for k in side_crossings(grey, lut, start + np.outer(ks, tang), ks,
-                                                 entered=True)):
+                                                entered=True)):
             return True
     return False
 
