@@ -166,10 +166,10 @@ def test_a_dark_line_that_fades_out_inside_the_sheet_is_never_returned():
 def test_only_the_centreline_stepping_is_not_a_sheet_border():
     offs = (-9.7, -4.9, 0.0, 4.9, 9.7)
     # The dark floor ends but both sides go on: the end of a line drawn on a sheet.
-    k, _ = border_line(offs, [[], [], [3.0], [], []])
+    k, *_ = border_line(offs, [[], [], [3.0], [], []])
     assert k is None
     # The sheets end too: a border line crossing the side lines.
-    k, _ = border_line(offs, [[3.0], [3.0], [3.0], [3.0], []])
+    k, *_ = border_line(offs, [[3.0], [3.0], [3.0], [3.0], []])
     assert k == pytest.approx(3.0)
 
 

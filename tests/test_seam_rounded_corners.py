@@ -64,7 +64,7 @@ def test_two_receding_edges_are_read_as_rounded_corners_a_straight_border_as_its
     # where it has receded by w / 2 = 10 px, read as a rounded edge does (the distance along
     # goes as the root of the recess).
     t = (np.sqrt(10.0) - np.sqrt(2.5)) / (np.sqrt(15.0) - np.sqrt(2.5))
-    k, unsure = border_line(offs, [[-2.0], [-10.0], [], [-10.0], [-2.0]], w=20.0)
+    k, unsure, *_ = border_line(offs, [[-2.0], [-10.0], [], [-10.0], [-2.0]], w=20.0)
     assert k == pytest.approx(-10.0 + 8.0 * t) and not unsure
-    k, unsure = border_line(offs, [[-5.0], [-2.5], [0.0], [2.5], [5.0]], w=20.0)
+    k, unsure, *_ = border_line(offs, [[-5.0], [-2.5], [0.0], [2.5], [5.0]], w=20.0)
     assert k == pytest.approx(0.0) and not unsure

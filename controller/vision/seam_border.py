@@ -9,6 +9,8 @@ where both sheets' edges curve away from the gap, two rounded plate corners
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -18,8 +20,23 @@ from controller.vision.seam_profiles import bilinear
 _MIN_STEP = 0.25  # relative brightness step that marks a sheet border
 
 
+class Border(NamedTuple):
+    """A sheet border read across the lines beside the seam (:func:`border_line`).
+
+    ``k``: px along the seam where it meets the centreline, or None (no border); ``unsure``: a
+    rival line is as well supported; ``slope``: px along per px across (the steps of line
+    ``o`` lie at ``k + slope * o``); ``sides``: whether lines left (negative offsets) and right
+    of the gap step on it.
+    """
+
+    k: float | None
+    unsure: bool = False
+    slope: float = 0.0
+    sides: tuple[bool, bool] = (False, False)
+
+
 def border_line(offs: tuple[float, ...], steps: list[list[float]],
-                w: float | None = None) -> tuple[float | None, bool]:
+                w: float | None = None) -> Border:
     """Distance along the seam at which a straight border through the steps meets the centreline.
 
     ``steps[i]`` are the step positions found on the line at offset ``offs[i]`` across the seam,
@@ -39,7 +56,8 @@ def border_line(offs: tuple[float, ...], steps: list[list[float]],
     inner lines a ragged edge can move by its jag.)
     """
     firsts = [(o, s[0]) for o, s in zip(offs, steps, strict=True) if s]
-    best: tuple[int, float] | None = None  # (-agreeing lines, k at the centreline)
+    # (-agreeing lines, k at the centreline, slope, offsets of the agreeing lines)
+    best: tuple[int, float, float, F64] | None = None
     fits: list[tuple[int, float]] = []
     for i in range(len(firsts)):
         for j in range(i + 1, len(firsts)):
@@ -49,20 +67,21 @@ def border_line(offs: tuple[float, ...], steps: list[list[float]],
                 continue
             sel = [(o, k) for o, k in firsts if abs(k - ka - s * (o - oa)) <= 1.5]
             o_arr, k_arr = np.array(sel).T
-            k0 = float(np.polyfit(o_arr, k_arr, 1)[1])
+            slope, k0 = (float(v) for v in np.polyfit(o_arr, k_arr, 1))
             fits.append((-len(sel), k0))
-            if best is None or (-len(sel), k0) < best:
-                best = (-len(sel), k0)
+            if best is None or (-len(sel), k0) < best[:2]:
+                best = (-len(sel), k0, slope, o_arr)
     if best is not None:
         k_round = rounded_corners(offs, steps, w) if w is not None and best[0] > -4 else None
         if k_round is not None:
-            return k_round, False
+            return Border(k_round, False, 0.0, (True, True))
         rivals = [k for n, k in fits if n == best[0] and abs(k - best[1]) > 3.0]
-        return best[1], best[0] == -2 and bool(rivals)
+        return Border(best[1], best[0] == -2 and bool(rivals), best[2],
+                      (bool(np.any(best[3] < 0)), bool(np.any(best[3] > 0))))
     # Only the centreline steps: the dark line ends but the sheet goes on beside it on both
     # sides. That is how a pen or soapstone line or a scratch ends inside a sheet; a joint ends
     # where a sheet does. Not an end (the caller calls it open).
-    return None, False
+    return Border(None)
 
 
 def rounded_corners(offs: tuple[float, ...], steps: list[list[float]], w: float) -> float | None:

@@ -176,10 +176,11 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         return
     if "open" in c.end_kinds:
         # A joint ends where a sheet ends or leaves the image; a line that fades out inside a
-        # sheet (the sheet going on beside it) is a pen or soapstone line or a scratch.
+        # sheet (the sheet going on beside it) is a pen or soapstone line or a scratch, and one
+        # that ends where only the sheet on one side does is a plate's outer edge.
         where = "both ends" if c.end_kinds == ("open", "open") else "one end"
         c.why_rejected = (f"dark line of {length:.0f} px fades out inside the sheet at {where} "
-                          "(a pen line or scratch, not a joint)")
+                          "(a pen line or scratch, or one plate's outer edge: not a joint)")
         # Seen to a border at one end, it may be a faint joint whose other end is lost: it is not
         # returned, but a seam only a little stronger than it is not sure either.
         c.rival = where == "one end"

@@ -242,9 +242,12 @@ def _hairline_look(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], lin
            if not any(share_near(c.polyline, q, 6.0) >= 0.8 for q in seen_lines)]
     fine = _refined(sub, lut, new, lines, hint_arr, p)
     for c in fine:
-        if not c.why_rejected and c.width is not None and float(np.median(c.width)) > factor:
+        if c.width is not None and float(np.median(c.width)) > factor:
+            # Whatever else it was refused for: the coarse grid's verdict on it stands, and a
+            # duplicate of a line it judged is no rival either.
             c.why_rejected = (f"line {float(np.median(c.width)):.1f} px wide found only on the "
                               "finer search grid")
+            c.rival = False
     return fine
 
 

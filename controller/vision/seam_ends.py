@@ -12,9 +12,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_border import border_line, side_crossings
+from controller.vision.seam_border import Border, border_line, side_crossings
 from controller.vision.seam_params import F64, DetectParams, runs_of
-from controller.vision.seam_profiles import fit_at
+from controller.vision.seam_profiles import bilinear, fit_at
 
 
 def measure_tails(grey: NDArray[np.uint8], lut: F64, guides: list[F64], ders: list[F64],
@@ -109,7 +109,13 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     delta = w_med / 2 + 2.5
     offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
     steps = [side_crossings(grey, lut, q + o * nrm, ks) for o in offs]
-    k_line, unsure = border_line(offs, steps, w_med)
+    line = border_line(offs, steps, w_med)
+    k_line, unsure = line.k, line.unsure
+    if k_line is not None and not all(line.sides) and not _other_side_ends(grey, lut, e_pt, tang,
+                                                                          line, offs):
+        # The border crosses one side of the line only: one plate turns away, the other side
+        # goes on (a plate's outer edge at its corner, a slot's end). Not where a joint ends.
+        k_line = None
     k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
     kind = "unsure sheet border" if unsure else "sheet border"
     if k_line is not None:
@@ -141,6 +147,37 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
             # a seam by itself.
             kind = "image border" if k_border - k < _VERIFY_PX else "covered"
     return float(k), kind, beyond
+
+
+def _other_side_ends(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, line: Border,
+                     offs: tuple[float, ...]) -> bool:
+    """Whether the side of the gap that showed no border step ends where ``line`` says too.
+
+    ``line`` was seen on one side of the gap only (and maybe on the centreline). A joint ends
+    where both sheets do; a sheet about as bright as the table beyond it does not step by the
+    25 % :func:`controller.vision.seam_border.side_crossings` asks, but it steps a little: on
+    that side's lines, where the border would cross them, the median brightness over 3-9 px
+    before and after differs by ``_FAINT_STEP`` or more. Where the table goes on past the end of
+    one plate (a plate's outer edge, a slot) the brightness does not change there. A line whose
+    window leaves the image is no evidence.
+    """
+    nrm = np.array([-tang[1], tang[0]])
+    side = 1.0 if line.sides[0] else -1.0
+    kk = np.arange(-9.0, 9.01, 0.5)
+    for o in offs:
+        if o * side <= 0 or line.k is None:
+            continue
+        pts = e_pt + o * nrm + np.outer(line.k + line.slope * o + kk, tang)
+        val, inside = bilinear(grey, lut, pts[:, 0], pts[:, 1])
+        if not inside.all():
+            continue
+        before, after = float(np.median(val[kk <= -3])), float(np.median(val[kk >= 3]))
+        if abs(after - before) >= _FAINT_STEP * max(before, after, 1e-6):
+            return True
+    return False
+
+
+_FAINT_STEP = 0.10  # relative step of a sheet border where the sheet and the table look alike
 
 
 def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med: float) -> bool:

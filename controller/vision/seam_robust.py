@@ -175,7 +175,8 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
                           "weld, spatter) with the gap going on beyond it: not an end")
     elif "open" in c.end_kinds:
         c.why_rejected = (f"dark line of {c.length_px:.0f} px fades out inside a sheet "
-                          "(a pen or soapstone line, a scratch: not a joint)")
+                          "(a pen or soapstone line, a scratch, one plate's outer edge: not a "
+                          "joint)")
         # A whole-image path may have joined a line with pieces of another: a rejected line as
         # strong as the best one leaves the choice in doubt.
         c.rival = True

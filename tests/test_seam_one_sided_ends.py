@@ -1,0 +1,75 @@
+"""A joint ends where both sheets end; a plate's outer edge ends where one plate does
+(controller/vision/seam_ends.py). Drawn images, not our renderer: plates on a table, exact area
+coverage (4x supersampled), blur and sensor noise.
+
+A dark band along a plate's outer edge (its cut face, or its shadow on the table) looks like a gap
+with a sheet on each side when the table is about as bright as a sheet. Where it ends, at the
+plate's corner, the plate turns away but the table goes on: the border crosses the lines on one
+side of the band only. Where a joint ends both sheets stop, so a border crosses both sides; a
+sheet that looks like the table still steps there faintly (10 % or more)."""
+
+import cv2
+import numpy as np
+import pytest
+
+from controller.errors import SeamNotFound
+from controller.vision.seam_detect import detect_seam
+
+S = 4  # supersampling
+W, H = 1600, 1200
+
+
+def render(fill, seed):
+    """Image from ``fill(m)``, which paints brightness levels (0-255) on a 4x canvas."""
+    m = np.zeros((H * S, W * S), np.float32)
+    fill(m)
+    img = cv2.resize(m, (W, H), interpolation=cv2.INTER_AREA)
+    img = cv2.GaussianBlur(img, (0, 0), 1.0)
+    img += np.random.default_rng(seed).normal(0, 2.0, img.shape)
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def plate_on_table(seed, table=120.0, plate=160.0, band=40.0, band_px=8):
+    """One plate (x 300-1300, y 200-600) with a dark band along its bottom edge (its cut face
+    seen from below: the camera looks at the plate from that side)."""
+    def fill(m):
+        m[:] = table
+        m[600 * S:(600 + band_px) * S, 300 * S:1300 * S] = band
+        m[200 * S:600 * S, 300 * S:1300 * S] = plate
+    return render(fill, seed)
+
+
+def two_sheets(seed, a=160.0, b=140.0, table=120.0, gap_px=8, floor=40.0):
+    """Two sheets (x 300-1300; A above y = 600, B below) with a gap between them."""
+    def fill(m):
+        m[:] = table
+        g = gap_px * S // 2
+        m[200 * S:600 * S - g, 300 * S:1300 * S] = a
+        m[600 * S - g:600 * S + g, 300 * S:1300 * S] = floor
+        m[600 * S + g:1000 * S, 300 * S:1300 * S] = b
+    return render(fill, seed)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_plates_outer_edge_is_not_a_joint(seed):
+    # Before: returned at confidence 1.00 with "sheet border" at both of its ends (the plate's
+    # corners), as the simulator's slotted and plain tables did with plate edges.
+    with pytest.raises(SeamNotFound):
+        detect_seam(plate_on_table(seed))
+
+
+@pytest.mark.parametrize("b,table", [(140.0, 120.0), (150.0, 135.0)])
+def test_a_joint_whose_sheet_looks_like_the_table_still_ends_at_the_sheets(b, table):
+    # Sheet B 14 % and 10 % brighter than the table: too faint for the border reading (25 %),
+    # enough to show that sheet B ends where sheet A does.
+    det = detect_seam(two_sheets(seed=4, b=b, table=table))
+    E = det.endpoints_px[np.argsort(det.endpoints_px[:, 0])]
+    assert det.end_kinds == ("joint_end", "joint_end")
+    assert np.abs(E - [[299.5, 599.5], [1299.5, 599.5]]).max() <= 3.0, E
+
+
+def test_a_joint_whose_sheet_cannot_be_told_from_the_table_is_refused():
+    # Sheet B exactly as bright as the table: nothing in the image says where it ends, and the
+    # end cannot be told from a plate's outer corner. Refused, not guessed.
+    with pytest.raises(SeamNotFound):
+        detect_seam(two_sheets(seed=5, b=120.0, table=120.0))
