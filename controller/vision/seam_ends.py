@@ -99,8 +99,10 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     distance along): :func:`controller.vision.seam_border.border_line` finds the steps that
     agree and follows that line in to the centreline (a step that agrees with no other, such as
     the edge of a table hole beyond the border, is not the end), or reads two rounded plate
-    corners. When no line steps, the seam runs out of the image (the end is the image border)
-    or ends where the profiles stopped fitting.
+    corners. A border seen on one side of the gap only is where one plate ends, not the joint
+    (a plate's outer edge at its corner), unless the other side steps there faintly
+    (:func:`_other_side_ends`). When no line steps, the seam runs out of the image (the end is
+    the image border) or ends where the profiles stopped fitting.
     """
     H, W = grey.shape
     nrm = np.array([-tang[1], tang[0]])
