@@ -163,11 +163,13 @@ def _other_side_ends(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, li
     one plate (a plate's outer edge, a slot) the brightness does not change there. A line whose
     window leaves the image is no evidence.
     """
+    if line.k is None:
+        return False
     nrm = np.array([-tang[1], tang[0]])
     side = 1.0 if line.sides[0] else -1.0
     kk = np.arange(-9.0, 9.01, 0.5)
     for o in offs:
-        if o * side <= 0 or line.k is None:
+        if o * side <= 0:
             continue
         pts = e_pt + o * nrm + np.outer(line.k + line.slope * o + kk, tang)
         val, inside = bilinear(grey, lut, pts[:, 0], pts[:, 1])
