@@ -8,26 +8,13 @@ plate's corner, the plate turns away but the table goes on: the border crosses t
 side of the band only. Where a joint ends both sheets stop, so a border crosses both sides; a
 sheet that looks like the table still steps there faintly (10 % or more)."""
 
-import cv2
 import numpy as np
 import pytest
+from drawn_plates import S, render
 
 from controller.errors import SeamNotFound
 from controller.vision.seam_border import border_line
 from controller.vision.seam_detect import detect_seam
-
-S = 4  # supersampling
-W, H = 1600, 1200
-
-
-def render(fill, seed):
-    """Image from ``fill(m)``, which paints brightness levels (0-255) on a 4x canvas."""
-    m = np.zeros((H * S, W * S), np.float32)
-    fill(m)
-    img = cv2.resize(m, (W, H), interpolation=cv2.INTER_AREA)
-    img = cv2.GaussianBlur(img, (0, 0), 1.0)
-    img += np.random.default_rng(seed).normal(0, 2.0, img.shape)
-    return np.clip(img, 0, 255).astype(np.uint8)
 
 
 def plate_on_table(seed, table=120.0, plate=160.0, band=40.0, band_px=8):
