@@ -151,66 +151,6 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     return float(k), kind, beyond
 
 
-_BEHIND_PX = 160.0  # how far back along an open-ended line the sheets' end is looked for
-_BEHIND_STEP_PX = 24.0  # half :func:`end_offset`'s window: the windows overlap
-_BEHIND_SEEN_PX = 30.0  # the gap seen this close before the border found behind an open end
-
-
-def border_behind(grey: NDArray[np.uint8], lut: F64, seq: F64, seen: NDArray[np.bool_],
-                  w_med: float, reach_px: float = _BEHIND_PX) -> tuple[int, F64] | None:
-    """Where the sheets end on the last ``reach_px`` of a line that read ``"open"``, or None.
-
-    Returns how many points of ``seq`` lie before that end, and the end (px).
-
-    ``seq`` (N, 2) px runs toward the end that read open. A valley path led on by a dark table
-    (or a slot, a shadow) beyond the sheets' end runs past it, and the border is then behind the
-    end, out of reach of :func:`end_offset`'s window. Read again every ``_BEHIND_STEP_PX`` back
-    along the line (the windows overlap), the nearest sheet border seen across the line (both
-    sides ending there, as :func:`end_offset` asks) is the end. A line fading out inside a sheet
-    (a pen line) crosses no sheet border on its way back. The gap must have been seen
-    (``seen``, per point of ``seq``) within ``_BEHIND_SEEN_PX`` before that border: a path that
-    bridged an unseen stretch to a border (from a pen line's end to a plate's edge) did not
-    follow a gap there. And the lines right beside the gap must cross a border there too
-    (:func:`_beside_gap_ends`): read on the outer lines only, it is a plate corner rounding away.
-    """
-    seg = np.linalg.norm(np.diff(seq, axis=0), axis=1)
-    back = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])  # arc length to the end (px)
-    for s in np.arange(_BEHIND_STEP_PX, reach_px + 0.01, _BEHIND_STEP_PX):
-        i = int(np.flatnonzero(back >= s)[-1]) if np.any(back >= s) else -1
-        if i < 0:
-            break
-        j = max(0, i - 6)
-        tang = seq[i] - seq[j]
-        if i == j or not np.linalg.norm(tang) > 0:
-            continue
-        tang = tang / np.linalg.norm(tang)
-        k, kind, _ = end_offset(grey, lut, seq[i], tang, w_med)
-        if kind != "sheet border":
-            continue
-        if not _beside_gap_ends(grey, lut, seq[i], tang, w_med):
-            return None
-        before = (back >= back[i] - k) & (back <= back[i] - k + _BEHIND_SEEN_PX)
-        if not np.any(seen & before):
-            return None
-        # The points before the border (by arc length), then the border's crossing itself.
-        return int(np.sum(back > back[i] - k + 1.0)), np.asarray(seq[i] + k * tang)
-    return None
-
-
-def _beside_gap_ends(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
-                     w_med: float) -> bool:
-    """Whether a line just beside the gap (either side) crosses a border near ``e_pt``.
-
-    The lines of :func:`end_offset`'s window next to the gap. A border read on the outer lines
-    only is a plate corner rounding away from the gap: where the two sheets stop facing each
-    other is not known from those steps.
-    """
-    nrm = np.array([-tang[1], tang[0]])
-    ks = np.arange(-28.0, 20.01, 0.5)
-    return any(side_crossings(grey, lut, e_pt + o * nrm + np.outer(ks, tang), ks)
-               for o in (-(w_med / 2 + 2.5), w_med / 2 + 2.5))
-
-
 def _other_side_ends(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, line: Border,
                      offs: tuple[float, ...]) -> bool:
     """Whether the side of the gap that showed no border step ends where ``line`` says too.

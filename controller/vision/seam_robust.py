@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_ends import _border_crossing, border_behind, end_offset
+from controller.vision.seam_ends import _border_crossing, end_offset
 from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
 from controller.vision.seam_profiles import bilinear, fit_at, resample
 from controller.vision.seam_track import ValleyPath, find_paths, robust_line
@@ -147,13 +147,7 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
         # The end where the sheets (or the image) end: the path trimmed there, or extended.
         along = (centre - e_pt) @ tang
         n = max(int(np.sum(along < k_end - 0.5 * p.step_px)), 2)
-        end_pt = e_pt + k_end * tang
-        behind = border_behind(grey, lut, centre, seen, w_med) if kind == "open" else None
-        if behind is not None:
-            # The path ran on past the sheets' end (a dark table carries the valley on).
-            (n, end_pt), kind = behind, "sheet border"
-            n = max(n, 2)
-        centre = np.vstack([centre[:n], end_pt])
+        centre = np.vstack([centre[:n], e_pt + k_end * tang])
         seen, width = np.append(seen[:n], True), np.append(width[:n], width[n - 1])
         if first:
             centre, seen, width = centre[::-1], seen[::-1], width[::-1]
