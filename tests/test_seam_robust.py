@@ -13,7 +13,12 @@ from controller.vision.seam_border import border_line
 from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_params import DetectParams
 from controller.vision.seam_profiles import linear_lut
-from controller.vision.seam_robust import _bent_bridge, robust_candidates
+from controller.vision.seam_robust import (
+    END_COVER_PX,
+    _bent_bridge,
+    _seen_to_border,
+    robust_candidates,
+)
 from controller.vision.seam_track import _best_subpath
 
 REAL = shared_data_dir() / "real-seams"
@@ -161,6 +166,27 @@ def test_a_dark_line_that_fades_out_inside_the_sheet_is_never_returned():
     for c in robust_candidates(grey, linear_lut(2.2), DetectParams()):
         if c.points is not None and np.median(np.abs(c.points[:, 0] - 500.0)) < 5:
             assert c.why_rejected  # the pen line is a candidate only to be rejected
+
+
+def test_a_sheet_border_the_gap_was_not_seen_to_run_to_is_no_joint_end():
+    # The simulator's pen tuning case 50006 view 1 (returned at confidence 1.00 before): a valley
+    # path along a pen line that ends mid-sheet, bridged about 300 px across the sheet to the
+    # plates' corner, where a sheet border was read as the joint's end.
+    step = 4.0
+    seen = np.ones(300, bool)
+    assert _seen_to_border("sheet border", seen, step) == "sheet border"
+    # A tack weld at the end (up to END_COVER_PX unseen) still ends at the border.
+    seen[-int(END_COVER_PX / step):] = False
+    assert _seen_to_border("sheet border", seen, step) == "sheet border"
+    assert _seen_to_border("unsure sheet border", seen, step) == "unsure sheet border"
+    # Longer: the path was led to the border, not along a gap.
+    seen[-int(END_COVER_PX / step) - 2:] = False
+    assert _seen_to_border("sheet border", seen, step) == "open"
+    assert _seen_to_border("unsure sheet border", seen, step) == "open"
+    # Toward the image border the seam may run on out of view under a patch: not judged so.
+    assert _seen_to_border("image border", seen, step) == "image border"
+    assert _seen_to_border("sheet border", np.zeros(10, bool), step) == "sheet border"
+    assert _seen_to_border("sheet border", np.zeros(40, bool), step) == "open"
 
 
 def test_only_the_centreline_stepping_is_not_a_sheet_border():

@@ -147,6 +147,7 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
         # The end where the sheets (or the image) end: the path trimmed there, or extended.
         along = (centre - e_pt) @ tang
         n = max(int(np.sum(along < k_end - 0.5 * p.step_px)), 2)
+        kind = _seen_to_border(kind, seen[:n], p.step_px)
         centre = np.vstack([centre[:n], e_pt + k_end * tang])
         seen, width = np.append(seen[:n], True), np.append(width[:n], width[n - 1])
         if first:
@@ -191,6 +192,22 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
         c.why_rejected = (f"valley path of {c.length_px:.0f} px: the gap is seen on only "
                           f"{100 * sup.mean():.0f} % of it")
     return c
+
+
+def _seen_to_border(kind: str, seen: NDArray[np.bool_], step_px: float) -> str:
+    """The kind of an end, ``"open"`` for a sheet border the gap was not seen to run to.
+
+    ``seen``: per path sample (``step_px`` apart) up to the end, whether the gap was measured
+    there. A sheet border reached across more than ``END_COVER_PX`` where no gap was seen (more
+    than a tack weld at the end covers) is where the path was led, not where a gap was followed:
+    a path from a pen line's end across the sheet to a plate's corner. The image border is not
+    judged so: the seam may run on out of view under a patch.
+    """
+    if not kind.endswith("sheet border"):
+        return kind
+    last = np.flatnonzero(seen)
+    unseen = (len(seen) - 1 - int(last[-1]) if len(last) else len(seen)) * step_px
+    return "open" if unseen > END_COVER_PX else kind
 
 
 def _trim_at_sheet_borders(grey: NDArray[np.uint8], lut: F64, centre: F64,
