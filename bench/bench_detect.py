@@ -74,8 +74,9 @@ def _detect(name: str, img: np.ndarray, cam: Any) -> dict[str, Any]:
             det = detect_seam(img, camera=cam)
             pts, conf, kinds = det.points_px, float(det.confidence), end_kinds_of(det)
             width: float | None = det.gap_width_px
+            way = str(det.stats.get("way", ""))
         else:
-            pts, conf, kinds, width = published_detect(img), 1.0, None, None
+            pts, conf, kinds, width, way = published_detect(img), 1.0, None, None, ""
     except SeamguideError as err:
         return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:160]}",
                 "time_s": time.perf_counter() - t0}
@@ -83,7 +84,7 @@ def _detect(name: str, img: np.ndarray, cam: Any) -> dict[str, Any]:
         return {"result": "crash", "error": f"{type(err).__name__}: {str(err)[:160]}",
                 "time_s": time.perf_counter() - t0}
     return {"result": "returned", "points": pts, "confidence": conf, "kinds": kinds,
-            "width_px": width, "time_s": time.perf_counter() - t0}
+            "width_px": width, "way": way, "time_s": time.perf_counter() - t0}
 
 
 def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]:
@@ -195,6 +196,28 @@ def by_look(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
     return dict(sorted(out.items()))
 
 
+def by_way(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
+    """Our returned single views of the wide and pen sets per way and part: found, wrong.
+
+    The way is how the seam was found (``profiles``: the two-edge profile model; ``valley
+    path``: the whole-image valley path, when the first refused): how far each can be trusted.
+    """
+    out: dict[str, dict[str, int]] = {}
+    for key, rs in rows.items():
+        if key.startswith("classic"):
+            continue
+        part = key.rsplit("/", 1)[-1]
+        for r in rs:
+            for v in r["views"]:
+                o = v["ours"]
+                if o["result"] in ("found", "wrong"):
+                    cell = out.setdefault(f"{o.get('way') or '?'}/{part}",
+                                          {"returned": 0, "found": 0, "wrong": 0})
+                    cell["returned"] += 1
+                    cell[o["result"]] += 1
+    return dict(sorted(out.items()))
+
+
 def timing(images: list[np.ndarray], runs: int, cam: Any) -> dict[str, Any]:
     """Median ms of ours, the published port and cv2.Canny on the same images, alternating."""
     greys = [im if im.ndim == 2 else cv2.cvtColor(im, cv2.COLOR_BGR2GRAY) for im in images]
@@ -283,6 +306,7 @@ def main(argv: list[str] | None = None) -> int:
                                             not key.startswith("classic")])
                         for split in splits},
         "by_look": by_look(rows),
+        "by_way": by_way(rows),
         "rows": rows}
     timing_imgs = [load_case(g[0])[0][0] for g in groups.values() if g][:6]
     if args.timing_runs > 0:  # 0: accuracy only
@@ -337,6 +361,12 @@ def markdown(rep: dict[str, Any]) -> str:
         for key, c in rep["by_look"].items():
             lines.append(f"| {key} | {c['views']} | {pct(c['found'], c['views'])} | "
                          f"{c['refused']} | {c['wrong']} |")
+    if rep.get("by_way"):
+        lines += ["", "Ours per way (returned single views of the wide and pen sets):", "",
+                  "| way / part | returned | found | wrong |", "|---|---|---|---|"]
+        for key, c in rep["by_way"].items():
+            lines.append(f"| {key} | {c['returned']} | {pct(c['found'], c['returned'])} | "
+                         f"{c['wrong']} |")
     t = rep.get("timing")
     if t is None:
         return "\n".join(lines) + "\n"
