@@ -39,6 +39,7 @@ import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -175,6 +176,18 @@ def reliability(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+def _our_single_views(rows: dict[str, list[dict[str, Any]]]
+                      ) -> Iterator[tuple[str, str, dict[str, Any]]]:
+    """(part, look family, our result) of every single view of the wide and pen sets."""
+    for key, rs in rows.items():
+        if key.startswith("classic"):
+            continue
+        part = key.rsplit("/", 1)[-1]
+        for r in rs:
+            for v in r["views"]:
+                yield part, r["family"], v["ours"]
+
+
 def by_look(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
     """Our single views of the wide and pen sets per look family and part: found, refused, wrong.
 
@@ -183,16 +196,11 @@ def by_look(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
     detector fails on shows however the difficulties mix it.
     """
     out: dict[str, dict[str, int]] = {}
-    for key, rs in rows.items():
-        if key.startswith("classic"):
-            continue
-        part = key.rsplit("/", 1)[-1]
-        for r in rs:
-            cell = out.setdefault(f"{r['family']}/{part}",
-                                  {"views": 0, "found": 0, "refused": 0, "wrong": 0, "crash": 0})
-            for v in r["views"]:
-                cell["views"] += 1
-                cell[v["ours"]["result"]] += 1
+    for part, family, o in _our_single_views(rows):
+        cell = out.setdefault(f"{family}/{part}",
+                              {"views": 0, "found": 0, "refused": 0, "wrong": 0, "crash": 0})
+        cell["views"] += 1
+        cell[o["result"]] += 1
     return dict(sorted(out.items()))
 
 
@@ -203,18 +211,12 @@ def by_way(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
     path``: the whole-image valley path, when the first refused): how far each can be trusted.
     """
     out: dict[str, dict[str, int]] = {}
-    for key, rs in rows.items():
-        if key.startswith("classic"):
-            continue
-        part = key.rsplit("/", 1)[-1]
-        for r in rs:
-            for v in r["views"]:
-                o = v["ours"]
-                if o["result"] in ("found", "wrong"):
-                    cell = out.setdefault(f"{o.get('way') or '?'}/{part}",
-                                          {"returned": 0, "found": 0, "wrong": 0})
-                    cell["returned"] += 1
-                    cell[o["result"]] += 1
+    for part, _, o in _our_single_views(rows):
+        if o["result"] in ("found", "wrong"):
+            cell = out.setdefault(f"{o.get('way') or '?'}/{part}",
+                                  {"returned": 0, "found": 0, "wrong": 0})
+            cell["returned"] += 1
+            cell[o["result"]] += 1
     return dict(sorted(out.items()))
 
 
