@@ -83,6 +83,11 @@ def test_operator_starts_confirms_and_reads_the_record(browser, tmp_path):
         assert len(browser.find_elements(By.CSS_SELECTOR, "#confirm-images img")) == 2
         assert browser.find_element(By.ID, "state").text == "confirming"
         shot(browser, "station_confirm", tmp_path)
+        # An operator looks at the path before confirming: the click comes at least 0.6 s after
+        # the daemon entered `confirming`, so that its latency check below can be made (a click
+        # within 0.6 s, on a fast run, left the state too short to check and failed the test).
+        entered = max(t for t, s in states if s == "confirming")
+        wait.until(lambda b: time.time() >= entered + 0.6)
         browser.find_element(By.ID, "btn-confirm").click()
         wait.until(lambda b: b.find_element(By.ID, "cycles_done").text == "1")
         wait.until(lambda b: b.find_elements(By.ID, "last-record-link"))
