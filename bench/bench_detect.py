@@ -76,8 +76,11 @@ def _detect(name: str, img: np.ndarray, cam: Any) -> dict[str, Any]:
             pts, conf, kinds = det.points_px, float(det.confidence), end_kinds_of(det)
             width: float | None = det.gap_width_px
             way = str(det.stats.get("way", ""))
+            stats: dict[str, Any] = {k: v for k, v in det.stats.items() if k != "way"}
+            stats["ends_px"] = np.round(det.endpoints_px, 1).tolist()
         else:
             pts, conf, kinds, width, way = published_detect(img), 1.0, None, None, ""
+            stats = {}
     except SeamguideError as err:
         return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:160]}",
                 "time_s": time.perf_counter() - t0}
@@ -85,7 +88,8 @@ def _detect(name: str, img: np.ndarray, cam: Any) -> dict[str, Any]:
         return {"result": "crash", "error": f"{type(err).__name__}: {str(err)[:160]}",
                 "time_s": time.perf_counter() - t0}
     return {"result": "returned", "points": pts, "confidence": conf, "kinds": kinds,
-            "width_px": width, "way": way, "time_s": time.perf_counter() - t0}
+            "width_px": width, "way": way, "stats": stats,
+            "time_s": time.perf_counter() - t0}
 
 
 def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]:

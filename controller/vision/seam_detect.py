@@ -76,7 +76,7 @@ from controller.vision.seam_decision import (
     spans_of,
 )
 from controller.vision.seam_params import F64, Candidate, DetectParams
-from controller.vision.seam_pattern import mark_table_lines, straight_lines
+from controller.vision.seam_pattern import mark_table_lines, straight_lines, straightener
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import robust_candidates
 
@@ -179,14 +179,16 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         hint_arr = hint_arr - [x0, y0]
     cands, seen, valleys, factor = coarse_candidates(sub, lut, p)
     lines = functools.cache(lambda: straight_lines(valleys, factor, p))
-    cands = _refined(sub, lut, cands, lines, hint_arr, p)
+    straighten = None if camera is None else straightener(camera, x0, y0)
+    table = functools.partial(mark_table_lines, lines=lines, p=p, straighten=straighten)
+    cands = _refined(sub, lut, cands, table, hint_arr, p)
     details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
     try:
         best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
     except SeamNotFound as first:
         if not p.robust:
             raise
-        both = cands + _hairline_look(sub, lut, cands, lines, hint_arr, factor, p)
+        both = cands + _hairline_look(sub, lut, cands, table, hint_arr, factor, p)
         try:
             best, ratio, conf, reasons = choose(both, p, details, (x0, y0))
         except SeamNotFound:
@@ -197,7 +199,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
         pens = [c.points for c in cands if c.points is not None and "fades out" in c.why_rejected]
         cands = robust_candidates(sub, lut, p, not_lines=pens)
-        mark_table_lines(cands, lines, p)
+        table(cands)
         if hint_arr is not None:
             cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
         details["first_way"] = str(first)
@@ -207,13 +209,18 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     return _detection(best, ratio, conf, reasons, cands, x0, y0)
 
 
-def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], lines: Any,
+def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: Any,
              hint_arr: F64 | None, p: DetectParams) -> list[Candidate]:
-    """Coarse candidates refined (table lines set aside first, pieces of one seam once)."""
+    """Coarse candidates refined (table lines set aside, pieces of one seam once).
+
+    ``table(cands)``: marks the lines of a table's grid among ``cands``
+    (:func:`controller.vision.seam_pattern.mark_table_lines`).
+    """
     # Lines of the table are set aside before refining, so that they do not use up the
-    # candidates refined (max_candidates) nor make the joint look ambiguous.
-    mark_table_lines(cands, lines, p)
-    table = [c for c in cands if c.why_rejected]
+    # candidates refined (max_candidates) nor make the joint look ambiguous; and again after,
+    # on the refined centreline: a long line is straight enough to judge only at full resolution.
+    table(cands)
+    aside = [c for c in cands if c.why_rejected]
     cands = [c for c in cands if not c.why_rejected]
     if hint_arr is not None:
         cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
@@ -226,10 +233,11 @@ def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], lines: An
             continue
         refine(sub, lut, c, p)
         done.append(c)
-    return drop_duplicates(done) + table
+    table(done)
+    return drop_duplicates(done) + aside
 
 
-def _hairline_look(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], lines: Any,
+def _hairline_look(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: Any,
                    hint_arr: F64 | None, factor: int, p: DetectParams) -> list[Candidate]:
     """The lines a grid twice as fine gives that the coarse one (``cands``) did not, refined.
 
@@ -240,7 +248,7 @@ def _hairline_look(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], lin
     seen_lines = [k.polyline for k in cands] + [k.points for k in cands if k.points is not None]
     new = [c for c in coarse_candidates(sub, lut, p, fine=True)[0]
            if not any(share_near(c.polyline, q, 6.0) >= 0.8 for q in seen_lines)]
-    fine = _refined(sub, lut, new, lines, hint_arr, p)
+    fine = _refined(sub, lut, new, table, hint_arr, p)
     for c in fine:
         if c.width is not None and float(np.median(c.width)) > factor:
             # Whatever else it was refused for: the coarse grid's verdict on it stands, and a

@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_params import F64, Candidate, DetectParams
 
 #: Largest angle (deg) between two lines of one family of the grid: parallel on the table, they
@@ -36,6 +37,7 @@ CROSS_DEG = 30.0
 TOUCH_PX = 30.0
 
 Line = tuple[F64, F64, float, float]  # point, unit direction, extent along it (min, max), px
+Straighten = Callable[[F64], F64]  # image px (N, 2) -> undistorted px of the same camera
 
 
 def straight_lines(valleys: NDArray[np.uint8], factor: int, p: DetectParams) -> list[Line]:
@@ -81,12 +83,16 @@ def _a_line_in(valleys: NDArray[np.uint8], a: F64, b: F64) -> bool:
 
 
 def mark_table_lines(cands: list[Candidate], lines: Callable[[], list[Line]],
-                     p: DetectParams) -> None:
+                     p: DetectParams, straighten: Straighten | None = None) -> None:
     """Reject (``why_rejected``) each candidate of ``cands`` that is a line of a table's grid.
 
     ``lines``: gives the straight lines of the image (:func:`straight_lines`), called only when a
-    candidate is straight (most joints are not: no Hough transform for them). A candidate whose
-    centreline (refined, else coarse) is straight is a grid line when
+    candidate is straight (most joints are not: no Hough transform for them). ``straighten``:
+    image px (N, 2) to undistorted px of the same camera (``None``: a lens without distortion).
+    A line of the table is straight on the table; the lens bends it in the image, by up to a few
+    px over a long line near the image border (more than ``p.straight_px``), so straightness is
+    judged on the undistorted centreline. A candidate whose centreline (refined, else coarse) is
+    straight is a grid line when
 
     - one of ``lines`` crosses it (at :data:`CROSS_DEG` or more, reaching within
       :data:`TOUCH_PX` of it inside its extent), and a second line runs at least
@@ -102,9 +108,11 @@ def mark_table_lines(cands: list[Candidate], lines: Callable[[], list[Line]],
         pts = c.points if c.points is not None else c.polyline
         if c.why_rejected or len(pts) < 3:
             continue
-        line = _line_of(pts, p.straight_px)
-        if line is None:
+        if _line_of(pts if straighten is None else straighten(pts), p.straight_px) is None:
             continue
+        # The line itself in image px, where the lines of the image (Hough) are.
+        line = _line_of(pts, np.inf)
+        assert line is not None
         m, d, s0, s1 = line
         touching: list[Line] = []
         across: list[Line] = []
@@ -126,6 +134,20 @@ def mark_table_lines(cands: list[Candidate], lines: Callable[[], list[Line]],
         if why:
             c.why_rejected = f"a straight line {why}: a line of the table's grid, not a joint"
             c.rival = False
+
+
+def straightener(camera: CameraModel, x0: int = 0, y0: int = 0) -> Straighten:
+    """A function: image px (N, 2) of ``camera`` to undistorted full-image px.
+
+    ``x0, y0``: the corner of the region of interest the px are counted from. A line straight on
+    the table is straight in undistorted px.
+    """
+    K = camera.K
+
+    def straighten(P: F64) -> F64:
+        n = camera.pixels_to_normalized(P + [x0, y0])
+        return np.asarray(n * [K[0, 0], K[1, 1]] + [K[0, 2], K[1, 2]], dtype=np.float64)
+    return straighten
 
 
 def _apart(a: list[Line], b: list[Line], offset_px: float) -> list[float]:
