@@ -44,6 +44,13 @@ HORIZONTAL = ((100.0, 800.0), (2100.0, 800.0))
     ([((100, 200), (2100, 200)), ((600, 1000), (600, 1600)), ((1300, 1000), (1300, 1600))], True),
     ([((100, 200), (2100, 200)), ((2300, 1000), (2300, 1600)), ((2800, 900), (2800, 1600))],
      True),
+    # three slots of a slotted table parallel to it, a pitch apart (wide tuning 10061, 10085)
+    ([((100, 400), (2100, 400)), ((100, 1100), (2100, 1100)), ((100, 1400), (2100, 1400))],
+     True),
+    # the two edges of the ground strips, one each side of a ground joint (the photographs)
+    ([((100, 580), (2100, 580)), ((100, 1020), (2100, 1020))], False),
+    # one of them seen as two Hough segments 10 px apart: still two lines, not three
+    ([((100, 580), (2100, 580)), ((100, 570), (2100, 570)), ((100, 1020), (2100, 1020))], False),
     # the same without the line of its own family: a straight joint beside a grid's other family
     ([((600, 1000), (600, 1600)), ((1300, 1000), (1300, 1600))], False),
 ])

@@ -10,11 +10,12 @@ A joint is a curve, or a line on the sheets that the lines of the table do not r
 at the sheets' borders. ``DetectParams.pattern_offset_px`` (25 mm at the default scale) keeps a
 fitter's pen line, 3-20 mm beside a joint, from counting as the parallel line.
 
-Not used: "another straight line parallel to it" alone (a slot table's slots). Real photographs
-of a ground joint (../shared/data/real-seams) show straight valleys parallel to the joint on
-both sides (the edges of the ground strips, grinding marks) at the distances of a table's
-slots, so that rule refused joints; thin slots (the tuning part's slotted table) stay a source
-of wrong seams.
+A slotted or striped table gives a family of parallel lines: a straight line with three or more
+others parallel to it, a pitch away and apart from each other, is one of them. One or two are
+not enough: real photographs of a ground joint (../shared/data/real-seams) show straight
+valleys parallel to the joint on both sides (the edges of the ground strips, grinding marks) at
+the distances of a table's slots. A straight joint laid square on a slotted table with three
+slots in view beside the sheets is refused by this: by its geometry alone it is one of them.
 """
 
 from __future__ import annotations
@@ -35,6 +36,14 @@ PARALLEL_DEG = 12.0
 CROSS_DEG = 30.0
 #: A crossing line must reach within this distance (px) of the candidate, inside its extent.
 TOUCH_PX = 30.0
+
+#: A straight line parallel to this many others, each a table's pitch away (``pattern_offset_px``
+#: or more) and apart from each other, is one of a family: a slotted or striped table. Two are
+#: not enough: the two edges of the ground strips beside a joint (../shared/data/real-seams) give
+#: a straight joint one parallel line on each side, at about the distance of a table's slots.
+FAMILY_LINES = 3
+#: Parallel segments closer than this (px, across) are one line seen as several.
+SAME_LINE_PX = 40.0
 
 Line = tuple[F64, F64, float, float]  # point, unit direction, extent along it (min, max), px
 Straighten = Callable[[F64], F64]  # image px (N, 2) -> undistorted px of the same camera
@@ -101,7 +110,9 @@ def mark_table_lines(cands: list[Candidate], lines: Callable[[], list[Line]],
     - a line runs parallel to it at least ``p.pattern_offset_px`` away, and two lines parallel
       to each other that far apart run across its direction: it is aligned with one family of a
       grid whose other family is in view (a piece of a grid line in a corner of the image, the
-      other family seen elsewhere).
+      other family seen elsewhere); or
+    - :data:`FAMILY_LINES` or more lines run parallel to it, each ``p.pattern_offset_px`` or more
+      from it and more than :data:`SAME_LINE_PX` from each other (a slotted table).
     """
     cos_cross = np.cos(np.radians(CROSS_DEG))
     for c in cands:
@@ -131,6 +142,9 @@ def mark_table_lines(cands: list[Candidate], lines: Callable[[], list[Line]],
             why = "crossed by a straight dark line, with another a pitch away"
         elif twins and _apart(across, across, p.pattern_offset_px):
             why = "aligned with one family of a grid whose other family is in view"
+        elif len(_distinct(_offsets(line, lines(), p.pattern_offset_px))) >= FAMILY_LINES:
+            why = (f"parallel to {FAMILY_LINES} or more straight lines a table's pitch away (a "
+                   "slotted or striped table)")
         if why:
             c.why_rejected = f"a straight line {why}: a line of the table's grid, not a joint"
             c.rival = False
@@ -148,6 +162,30 @@ def straightener(camera: CameraModel, x0: int = 0, y0: int = 0) -> Straighten:
         n = camera.pixels_to_normalized(P + [x0, y0])
         return np.asarray(n * [K[0, 0], K[1, 1]] + [K[0, 2], K[1, 2]], dtype=np.float64)
     return straighten
+
+
+def _offsets(line: Line, b: list[Line], offset_px: float) -> list[float]:
+    """Signed distances (px, across ``line``) of the lines of ``b`` parallel to it.
+
+    Only those at least ``offset_px`` away.
+    """
+    cos_par = np.cos(np.radians(PARALLEL_DEG))
+    m, d, _, _ = line
+    n = np.array([-d[1], d[0]])
+    return [float((m2 - m) @ n) for m2, d2, _, _ in b
+            if abs(float(d @ d2)) >= cos_par and abs(float((m2 - m) @ n)) >= offset_px]
+
+
+def _distinct(offsets: list[float]) -> list[float]:
+    """``offsets`` (px) with those within :data:`SAME_LINE_PX` of the previous one merged.
+
+    The Hough transform gives one dark line as several segments.
+    """
+    out: list[float] = []
+    for x in sorted(offsets):
+        if not out or x - out[-1] > SAME_LINE_PX:
+            out.append(x)
+    return out
 
 
 def _apart(a: list[Line], b: list[Line], offset_px: float) -> list[float]:
