@@ -131,11 +131,10 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
         k, kind = k_border, "image border"
     beyond = None
     border = kind.endswith("sheet border")
-    if border and _sheets_end(grey, lut, e_pt + k * tang, tang, w_med):
-        return float(k), kind, None
     if border or kind == "open":
-        # A step on the joint only (a bead on it: the sheets go on beside it), or a line that
-        # fades out: is the same gap seen again beyond?
+        # A step on the joint (a bead on it), or a line that fades out: is the same gap seen
+        # again beyond? Asked before the sheets beside are read: a mark or a pen line 50 px
+        # beside a tack weld steps where the sheets do not end.
         ahead = tang if chord is None else chord
         beyond = gap_resumes(grey, lut, e_pt + k * tang, ahead, w_med,
                              _border_crossing(e_pt + k * tang, ahead, W, H, 0.0))
@@ -143,6 +142,8 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
             # What stopped the gap is a patch on the joint (a tack weld, spatter, slag, a marker
             # ring), not the end of the sheets nor of a line: the same gap goes on beyond it.
             kind = "covered"
+        elif border and _sheets_end(grey, lut, e_pt + k * tang, tang, w_med):
+            return float(k), kind, None
         elif border:
             # Not the joint's end. Near the image border the gap beyond cannot be seen: the
             # view of the seam stops here; elsewhere the seam is covered and this piece is not
