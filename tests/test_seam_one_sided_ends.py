@@ -73,3 +73,40 @@ def test_the_border_reading_says_which_sides_stepped_and_its_slope():
     line = border_line(offs, [[3.0], [3.0], [3.0], [3.0], []])
     assert line.sides == (True, True) and line.slope == pytest.approx(0.0, abs=1e-9)
     assert border_line(offs, [[], [], [3.0], [], []]).k is None
+
+
+def tacked_joint(seed, pen_off_px, tack_r_px=35, x_tack=800):
+    """Two sheets with an 8 px gap (y = 600) crossed by a tack weld (a bright disc at x_tack) and
+    a pen line 4 px wide drawn parallel to the joint, ``pen_off_px`` below it, from just after
+    the tack weld on."""
+    def fill(m):
+        m[:] = 120.0
+        g = 8 * S // 2
+        m[200 * S:600 * S - g, 300 * S:1300 * S] = 160.0
+        m[600 * S - g:600 * S + g, 300 * S:1300 * S] = 40.0
+        m[600 * S + g:1000 * S, 300 * S:1300 * S] = 150.0
+        y = (600 + pen_off_px) * S
+        m[y - 2 * S:y + 2 * S, (x_tack + tack_r_px - 5) * S:1250 * S] = 90.0
+        yy, xx = np.ogrid[:m.shape[0], :m.shape[1]]
+        m[(xx - x_tack * S) ** 2 + (yy - 600 * S) ** 2 <= (tack_r_px * S) ** 2] = 200.0
+    return render(fill, seed)
+
+
+@pytest.mark.parametrize("pen_off_px", [52, 60])
+def test_a_tack_weld_beside_a_pen_line_is_covered_not_an_end(pen_off_px):
+    # The gap stops at the tack weld, which steps on the lines along the gap like a sheet border.
+    # The check beside the joint (48 px + half the gap out) crossed the pen line's start at 52 px
+    # and took it for the sheets ending: the tack weld was returned as the joint's end (pen easy
+    # tuning 50023 view 1). The gap goes on beyond the tack weld: covered, whatever steps beside.
+    from controller.vision.seam_ends import end_offset
+    from controller.vision.seam_params import DetectParams
+    from controller.vision.seam_profiles import linear_lut
+
+    img = tacked_joint(1, pen_off_px)
+    k, kind, beyond = end_offset(img, linear_lut(DetectParams().gamma), np.array([758.0, 599.5]),
+                                 np.array([1.0, 0.0]), 8.0)
+    assert kind == "covered" and beyond is not None
+    # and the whole joint is found through it, the tack weld an occluded span
+    det = detect_seam(img)
+    assert det.end_kinds == ("joint_end", "joint_end")
+    assert len(det.occluded_spans_px) == 1
