@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controller.errors import SeamNotFound
+from controller.errors import AmbiguousSeam, SeamNotFound
 from controller.geometry.camera_model import default_camera
 from controller.vision import seam_detect
 from controller.vision.seam_detect import detect_seam
@@ -117,3 +117,21 @@ def test_a_grid_line_of_the_table_is_not_returned_as_a_seam(
     monkeypatch.setattr(seam_detect, "mark_table_lines", lambda *a, **k: None)
     det = detect_seam(img, camera=default_camera())
     assert det.confidence >= 0.9 and det.end_kinds == ("image_border", "image_border")
+
+
+def test_a_piece_of_the_joint_stopped_by_a_tack_weld_keeps_a_slot_piece_from_winning() -> None:
+    # Wide medium tuning 10049, view 1 (shop look, slotted table): the joint is seen in pieces,
+    # each stopped by a tack weld with the gap going on beyond ("covered", not an end), and a
+    # 330 px piece of a slot coming out from under a plate was returned at confidence 1.00 with
+    # a "sheet border" end where the plate covers the slot. A covered piece of the joint is
+    # evidence of a seam: it stays a rival, and the slot piece is refused as ambiguous.
+    from bench.detect_cases import make_case_scene, pair_poses
+
+    cam = default_camera()
+    case = ("wide", "medium", "tuning", 10049)
+    scene = make_case_scene(case)
+    T = pair_poses(scene, cam, case[3])[1]
+    img = np.asarray(render(scene, cam, T, seed=case[3] + 7919).image)
+    with pytest.raises(AmbiguousSeam) as err:
+        detect_seam(img, camera=cam)
+    assert "covered patch" in str(err.value)

@@ -173,6 +173,9 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         # piece's end is not the joint's. The whole-image valley path bridges such patches.
         c.why_rejected = (f"gap of {length:.0f} px stops at a covered patch (a tack weld, "
                           "spatter) with the gap going on beyond it: not an end")
+        # A piece of a seam that goes on: another line is no surer than this one is strong.
+        c.rival = True
+        c.score = length * c.depth * c.valid_frac
         return
     if "open" in c.end_kinds:
         # A joint ends where a sheet ends or leaves the image; a line that fades out inside a
