@@ -110,3 +110,28 @@ def test_a_tack_weld_beside_a_pen_line_is_covered_not_an_end(pen_off_px):
     det = detect_seam(img)
     assert det.end_kinds == ("joint_end", "joint_end")
     assert len(det.occluded_spans_px) == 1
+
+
+def t_corner(seed, bar_px=14):
+    """Two sheets (x 300-1000; A above y = 600, B below, an 8 px gap between) butting against a
+    third plate (x 1000 + bar_px to 1400) across a gap ``bar_px`` wide: a T-corner at x = 1000."""
+    def fill(m):
+        m[:] = 120.0
+        g = 8 * S // 2
+        m[200 * S:1000 * S, 300 * S:1000 * S] = 160.0
+        m[600 * S + g:1000 * S, 300 * S:1000 * S] = 150.0
+        m[600 * S - g:600 * S + g, 300 * S:1000 * S] = 40.0
+        m[200 * S:1000 * S, 1000 * S:(1000 + bar_px) * S] = 40.0
+        m[200 * S:1000 * S, (1000 + bar_px) * S:1400 * S] = 155.0
+    return render(fill, seed)
+
+
+@pytest.mark.parametrize("seed,bar_px", [(1, 14), (2, 20)])
+def test_a_joint_ending_at_a_t_corner_ends_at_the_near_edge_of_the_crossing_gap(seed, bar_px):
+    # The crossing gap is a dark band the brightness comes back from (the third plate): its
+    # near edge, where the two sheets stop, is the joint's end. It was read at the band's far
+    # side, a band's width past the end (pen easy tuning 50043, 15 px, confidence 1.00).
+    det = detect_seam(t_corner(seed, bar_px))
+    E = det.endpoints_px[np.argsort(det.endpoints_px[:, 0])]
+    assert det.end_kinds == ("joint_end", "joint_end")
+    assert np.abs(E - [[299.5, 599.5], [999.5, 599.5]]).max() <= 3.0, E

@@ -115,7 +115,7 @@ def rounded_corners(offs: tuple[float, ...], steps: list[list[float]], w: float)
 
 
 def side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
-                   entered: bool = False) -> list[float]:
+                   entered: bool = False, bands: bool = False) -> list[float]:
     """Where the brightness along the line ``ps`` (at offsets ``ks``) steps sharply and lastingly.
 
     From well inside the sheet (``ks > -14``) outward: a step is where the median brightness
@@ -125,6 +125,8 @@ def side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
     the two levels, and must be sharp (a few pixels of blur). All steps are returned, inner
     first: which one is the sheet border is decided across lines (:func:`border_line`).
     ``entered``: also drop the far side of a dip (the line was at the outer level just before).
+    ``bands``: also keep a step the brightness comes back from (the near edge of a dark band:
+    a dot, or a gap running across the seam's end at a T-corner); the caller decides which.
     """
     val, inside = bilinear(grey, lut, ps[:, 0], ps[:, 1])
     val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
@@ -169,7 +171,7 @@ def side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
             continue
         # Off the sheet for good: the brightness never comes back past half-way (a dot or a
         # glare band on the sheet is left again; the table beyond a border is not).
-        if np.any(sgn * (val[k + 2:lim] - half) > 0.2 * amp):
+        if not bands and np.any(sgn * (val[k + 2:lim] - half) > 0.2 * amp):
             continue
         # The way out of a dot read from inside it; not asked for at the seam's end (there it
         # cost a real photograph).

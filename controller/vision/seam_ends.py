@@ -112,6 +112,7 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
     steps = [side_crossings(grey, lut, q + o * nrm, ks) for o in offs]
     line = border_line(offs, steps, w_med)
+    line = _band_before(grey, lut, q, nrm, ks, offs, w_med, line)
     k_line, unsure = line.k, line.unsure
     if k_line is not None and not all(line.sides) and not _other_side_ends(grey, lut, e_pt, tang,
                                                                           line, offs):
@@ -150,6 +151,26 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
             # a seam by itself.
             kind = "image border" if k_border - k < _VERIFY_PX else "covered"
     return float(k), kind, beyond
+
+
+def _band_before(grey: NDArray[np.uint8], lut: F64, q: F64, nrm: F64, ks: F64,
+                 offs: tuple[float, ...], w_med: float, line: Border) -> Border:
+    """``line``, or the near edge of a dark band across the seam before it (a T-corner).
+
+    A gap running across the seam's end (the crossbar of a T, the slot to the next plate) is a
+    dark band the brightness comes back from, which :func:`side_crossings` drops (a dot on a
+    sheet does that too): the border was read at the band's far side, a band's width past the
+    joint's end. A band's near edge is taken when it is straight across all four lines beside
+    the gap (a dot is not; the centreline need not step: the band may be as dark as the gap)
+    and nearer than ``line`` (or ``line`` is none).
+    """
+    steps = [side_crossings(grey, lut, q + o * nrm, ks, bands=True) for o in offs]
+    near = border_line(offs, steps, w_med)
+    if near.k is None or (line.k is not None and near.k > line.k - 3.0):
+        return line
+    on = sum(1 for o, s in zip(offs, steps, strict=True)
+             if o != 0.0 and s and abs(s[0] - (near.k + near.slope * o)) <= 1.5)
+    return near if on == len(offs) - 1 else line
 
 
 def _other_side_ends(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, line: Border,
