@@ -26,8 +26,9 @@ joint's, so this looks for the *shape*, not for edges:
    smoothed by a local quadratic (Savitzky-Golay) fit over arc length, which follows any shape
    without the curling of a global polynomial and without shrinking curves.
    A straight candidate in a grid of straight valleys (crossed by one, with another parallel to
-   it or to the crossing one) is a line of the table, set aside before refining
-   (:mod:`controller.vision.seam_pattern`).
+   it or to the crossing one), or one of three or more parallel lines a table's pitch apart, is
+   a line of the table, set aside before refining and again after, on the refined centreline
+   judged straight on the undistorted image (:mod:`controller.vision.seam_pattern`).
 5. **Decision**: no candidate that passes -> :class:`SeamNotFound`; two of similar strength ->
    :class:`AmbiguousSeam`; both carry what was seen in ``details``.
 6. **Second and third looks** when no candidate passes: the coarse search again with the valley
@@ -49,7 +50,7 @@ image (undistort with ``CameraModel.pixels_to_normalized``).
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -79,6 +80,9 @@ from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_pattern import mark_table_lines, straight_lines, straightener
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import robust_candidates
+
+#: Marks the lines of a table among candidates (seam_pattern.mark_table_lines, bound to an image).
+TableCheck = Callable[[list[Candidate]], None]
 
 __all__ = ["IMAGE_BORDER", "JOINT_END", "DetectParams", "SeamDetection", "detect_seam",
            "detect_seams"]
@@ -209,7 +213,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     return _detection(best, ratio, conf, reasons, cands, x0, y0)
 
 
-def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: Any,
+def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: TableCheck,
              hint_arr: F64 | None, p: DetectParams) -> list[Candidate]:
     """Coarse candidates refined (table lines set aside, pieces of one seam once).
 
@@ -237,7 +241,7 @@ def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: An
     return drop_duplicates(done) + aside
 
 
-def _hairline_look(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: Any,
+def _hairline_look(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: TableCheck,
                    hint_arr: F64 | None, factor: int, p: DetectParams) -> list[Candidate]:
     """The lines a grid twice as fine gives that the coarse one (``cands``) did not, refined.
 

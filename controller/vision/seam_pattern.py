@@ -203,6 +203,8 @@ def _apart(a: list[Line], b: list[Line], offset_px: float) -> list[float]:
 
 
 def _line_of(P: F64, straight_px: float) -> Line | None:
+    if not np.all(np.isfinite(P)):
+        return None  # a point the lens model could not undistort: no judgement
     m = P.mean(axis=0)
     _, _, vt = np.linalg.svd(P - m, full_matrices=False)
     dev = (P - m) @ vt[1]
