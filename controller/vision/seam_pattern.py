@@ -190,16 +190,7 @@ def _distinct(offsets: list[float]) -> list[float]:
 
 def _apart(a: list[Line], b: list[Line], offset_px: float) -> list[float]:
     """Distances >= ``offset_px`` between a line of ``a`` and a line of ``b`` parallel to it."""
-    cos_par = np.cos(np.radians(PARALLEL_DEG))
-    out = []
-    for m, d, _, _ in a:
-        n = np.array([-d[1], d[0]])
-        for m2, d2, _, _ in b:
-            if abs(float(d @ d2)) >= cos_par:
-                x = abs(float((m2 - m) @ n))
-                if x >= offset_px:
-                    out.append(x)
-    return out
+    return [abs(x) for line in a for x in _offsets(line, b, offset_px)]
 
 
 def _line_of(P: F64, straight_px: float) -> Line | None:
