@@ -12,6 +12,7 @@ from controller.errors import AmbiguousSeam, SeamNotFound
 from controller.vision.seam_border import border_line
 from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_params import DetectParams
+from controller.vision.seam_path_ends import over_table
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import (
     END_COVER_PX,
@@ -223,3 +224,81 @@ def test_real_photographs_found_or_refused_never_wrong():
     # Today: 6 of 9 found (1_x2 and 1_x5 ambiguous with the ground strip's edge line, 2_x1
     # nearly closed); fewer means the detector got worse on real photographs.
     assert sum(v == "found" for v in verdicts.values()) >= 6, verdicts
+
+
+def _sheets_on_table(bead: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Two sheets (grey 160) meeting at x = 300 (gap 6 px, grey 40) from y = 200 down; above,
+    a dark table (grey 25), or (``bead``) the sheets go on under a tack weld: a dark crater
+    ringed by a bright bead. Returns the image and a straight path x = 300 from y = 0 to 599."""
+    rng = np.random.default_rng(3)
+    img = np.full((600, 600), 160.0)
+    img[:, 297:303] = 40.0
+    if bead:
+        yy, xx = np.mgrid[0:600, 0:600]
+        r = np.hypot(xx - 300.0, yy - 110.0)
+        img[r < 95] = 230.0  # the bead, brighter than the sheets
+        img[r < 70] = 30.0  # its crater
+    else:
+        img[:200] = 25.0
+    img = np.clip(img + rng.normal(0, 4, img.shape), 0, 255).astype(np.uint8)
+    centre = np.column_stack([np.full(600, 300.0), np.arange(600.0)])
+    return img, centre
+
+
+@pytest.mark.parametrize("bead", [False, True])
+def test_a_path_carried_over_a_dark_table_is_told_from_a_covered_joint(bead: bool) -> None:
+    # A valley path through the whole image runs on past the sheets' end over a dark table (the
+    # gap no longer seen): that stretch is table on both sides all along, not a covered
+    # stretch of the joint. A tack weld over the joint is as dark in its crater, but its bead
+    # (or the sheets) is as bright as the sheets somewhere beside the path.
+    img, centre = _sheets_on_table(bead)
+    lut = linear_lut(DetectParams().gamma)
+    stretch, seen = np.arange(0, 150), np.arange(250, 400)
+    assert over_table(img, lut, centre, stretch, seen, 6.0) is (not bead)
+    # Where the gap is seen, the sides are the sheets: never table.
+    assert over_table(img, lut, centre, np.arange(300, 500), seen, 6.0) is False
+
+
+def _rendered_view(case: tuple[str, str, str, int], view: int):
+    """A benchmark case's view rendered as bench/detect_cases.py does, with its truth."""
+    from bench.detect_cases import make_case_scene, pair_poses
+    from controller.geometry.camera_model import default_camera
+    from drivers.sim.sim_render import render
+
+    cam = default_camera()
+    scene = make_case_scene(case)
+    T = pair_poses(scene, cam, case[3])[view]
+    r = render(scene, cam, T, seed=case[3] + 7919 * view)
+    truth = {"seam_px": r.seam_px, "end_kinds": list(r.end_kinds), "end_tol_px": r.end_tol_px,
+             "spans": np.array(r.occluded_spans_px, float).reshape(-1, 2),
+             "pens": list(r.pen_lines_px), "gap_px": r.gap_px, "gap_mm": scene.gap_mm,
+             "ragged_mm": scene.look.ragged_mm, "family": scene.look.family}
+    return np.asarray(r.image), truth, cam
+
+
+def test_a_valley_path_that_ran_on_into_the_table_is_not_returned() -> None:
+    # Wide medium tuning 10081, view 0 (a curved joint reaching a dark table): with the gap
+    # followed to the sheets' end at one end (below), the whole-image path's other end ran on
+    # 340 px over the table to the image border and was returned as a seam leaving the image
+    # there (a wrong seam). The stretch over the table is cut off; the end where the gap was
+    # last seen is then judged as it is.
+    from bench.detect_score import end_kinds_of, score_view
+
+    img, truth, cam = _rendered_view(("wide", "medium", "tuning", 10081), 0)
+    try:
+        det = detect_seam(img, camera=cam)
+    except (SeamNotFound, AmbiguousSeam):
+        return
+    assert score_view(det.points_px, truth, end_kinds_of(det))["result"] == "found"
+
+
+def test_the_gap_is_followed_to_the_sheets_end_where_the_path_runs_straight_on() -> None:
+    # Wide hard tuning 10066, view 0: the smoothed valley path cut the corner where the joint
+    # curves to the sheets' end, and the profiles read across it stopped seeing the gap before
+    # the sheets ended; it was returned 123 px past the end (a wrong seam). The gap is now
+    # followed from where it was last seen to the sheets' end.
+    from bench.detect_score import end_kinds_of, score_view
+
+    img, truth, cam = _rendered_view(("wide", "hard", "tuning", 10066), 0)
+    det = detect_seam(img, camera=cam)
+    assert score_view(det.points_px, truth, end_kinds_of(det))["result"] == "found"

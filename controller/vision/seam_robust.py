@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from controller.vision.seam_ends import _border_crossing, end_offset
 from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
+from controller.vision.seam_path_ends import END_COVER_PX, follow_ends, trim_at_sheet_borders
 from controller.vision.seam_profiles import bilinear, fit_at, resample
 from controller.vision.seam_track import ValleyPath, find_paths, robust_line
 from controller.vision.seam_valley import main_directions, shrink, valley_response, work_factor
@@ -31,7 +32,6 @@ MIN_DEPTH = 0.3  # median relative valley depth along a path for it to be a gap
 MIN_RESP = 0.15  # valley response that counts as a valley on a clean image
 MIN_SEEN = 0.4  # share of a path where the gap is measured at full resolution
 MIN_SUPPORT = 0.65  # share of a path with a valley for it to be a gap (the rest covered)
-END_COVER_PX = 100.0  # longest unseen stretch at an end carried on to it (a tack weld there)
 
 
 def robust_candidates(grey: NDArray[np.uint8], lut: F64, p: DetectParams, max_paths: int = 3,
@@ -129,7 +129,8 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     centre = _bridge(raw_centre, kept, max(8, int(round(200.0 / p.step_px))))
     seen = kept
     width = np.where(lm_ok, fit["width"], w_est)
-    lo, hi = _trim_at_sheet_borders(grey, lut, centre, kept, float(np.median(width[kept])), p)
+    centre, seen, width = follow_ends(grey, lut, centre, seen, width, pp)
+    lo, hi = trim_at_sheet_borders(grey, lut, centre, seen, float(np.median(width[seen])), p)
     if (hi - lo) * p.step_px >= p.min_length_px:
         # (Cut shorter than a seam, it is judged as a whole, as it was found.)
         centre, seen, width = centre[lo:hi], seen[lo:hi], width[lo:hi]
@@ -208,36 +209,6 @@ def _seen_to_border(kind: str, seen: NDArray[np.bool_], step_px: float) -> str:
     last = np.flatnonzero(seen)
     unseen = (len(seen) - 1 - int(last[-1]) if len(last) else len(seen)) * step_px
     return "open" if unseen > END_COVER_PX else kind
-
-
-def _trim_at_sheet_borders(grey: NDArray[np.uint8], lut: F64, centre: F64,
-                           kept: NDArray[np.bool_], w_med: float,
-                           p: DetectParams) -> tuple[int, int]:
-    """The samples of ``centre`` (px) to keep, ``[lo, hi)``: cut where the seen gap meets a border.
-
-    A path through the whole image runs on to the image border; where the gap was last seen
-    more than ``END_COVER_PX`` before it and the sheets are seen to end right there (a sheet
-    border across the seam, :func:`controller.vision.seam_ends.end_offset`), what follows is
-    the table (a dark table carries the valley on), not a covered stretch of the joint. A long
-    unseen stretch between sheets that go on (a ragged or covered gap) is kept.
-    """
-    idx = np.flatnonzero(kept)
-    lo, hi = 0, len(kept)
-    for first in (True, False):
-        i = int(idx[0]) if first else int(idx[-1])
-        unseen = i if first else len(kept) - 1 - i
-        if unseen * p.step_px <= END_COVER_PX:
-            continue
-        j = int(idx[min(5, len(idx) - 1)]) if first else int(idx[max(0, len(idx) - 6)])
-        tang = centre[i] - centre[j]
-        tang /= np.linalg.norm(tang) + 1e-12
-        _, kind, _ = end_offset(grey, lut, centre[i], tang, w_med)
-        if kind == "sheet border":
-            if first:
-                lo = i
-            else:
-                hi = i + 1
-    return lo, hi
 
 
 def _bent_bridge(centre: F64, kept: NDArray[np.bool_], long: int, n_fit: int) -> float | None:
