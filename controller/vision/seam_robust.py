@@ -143,15 +143,6 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
         tang = centre[-1] - centre[max(0, len(centre) - 6)]
         tang /= np.linalg.norm(tang) + 1e-12
         k_end, kind, _ = end_offset(grey, lut, e_pt, tang, w_med)
-        last = int(np.flatnonzero(seen)[-1]) if seen.any() else len(seen) - 1
-        if kind == "open" and last < len(seen) - 1:
-            # The path ran on past where the gap was last seen (between two rounded plate
-            # corners, into the table): the sheets' end is read from there instead.
-            t_last = centre[last] - centre[max(0, last - 5)]
-            t_last /= np.linalg.norm(t_last) + 1e-12
-            k_last, kind_last, _ = end_offset(grey, lut, centre[last], t_last, w_med)
-            if kind_last == "sheet border":
-                e_pt, tang, k_end, kind = centre[last], t_last, k_last, kind_last
         if kind != "image border" and _near_border(e_pt, W, H, 2.0 * f + 4.0):
             kind, k_end = "image border", _border_crossing(e_pt, tang, W, H, 0.0)
         # The end where the sheets (or the image) end: the path trimmed there, or extended.
