@@ -8,7 +8,9 @@ through the working image (:mod:`controller.vision.seam_track`) on the multi-sca
 at full resolution: a profile across it every ``step_px``; where the two-edge model fits close to
 the path its centre is used (sub-pixel), else the darkest point of the smoothed profile near the
 path when it is a valley, else (covered: a tack weld) the path is interpolated from both sides and
-the stretch reported as occluded. The ends are classified as in the first way
+the stretch reported as occluded. Where the path ran on past the seam's end (into the table),
+its ends are first brought back to the seam (:mod:`controller.vision.seam_path_ends`). The ends
+are classified as in the first way
 (:func:`controller.vision.seam_ends.end_offset`): the image border, a sheet border (``joint_end``),
 or ``open`` (the line fades out inside a sheet: a pen or soapstone line, a scratch; rejected).
 """
