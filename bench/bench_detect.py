@@ -21,8 +21,9 @@ Each view goes to our detector (with the camera's calibration, no region of inte
 seam) and to the published method's port (bench/published_detect.py): **found**, **refused**
 (SeamNotFound / AmbiguousSeam / any SeamguideError) or **wrong** (bench/detect_score.py: not on
 the true seam within tolerance, short of its ends, the wrong end kinds, or the pen line). Each
-pair of our detections is triangulated with the exact calibration (controller.stereo.locate, the
-scene's nominal region as the job would give it): **located** (every point within 0.5 mm of the
+pair of our detections is triangulated with the exact calibration as the cycle does
+(controller.stereo.locate with each view's end kinds and gap width, the scene's nominal region
+as the job would give it, unseen ends not clipped): **located** (every point within 0.5 mm of the
 true seam both views see, covering >= 90 % of it), **partial** (within 0.5 mm, shorter),
 **wrong** (a point off by more than 1 mm) or **refused**. Then a reliability table (confidence
 bins vs the share of returned seams that were found) and the time per 2272x1704 image as a ratio
@@ -99,6 +100,7 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
     row: dict[str, Any] = {"case": list(case), "family": str(z["family"]), "views": []}
     curves: list[np.ndarray] = []
     widths: list[float | None] = []
+    kinds: list[tuple[str, str] | None] = []
     for i, img in enumerate(imgs):
         truth = view_truth(z, i)
         v: dict[str, Any] = {"gap_px": truth["gap_px"], "end_kinds": truth["end_kinds"],
@@ -106,16 +108,18 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
         for name in ("ours", "published"):
             r = _detect(name, img, cam)
             if r["result"] == "returned":
-                r.update(score_view(r["points"], truth, r.pop("kinds")))
+                said = r.pop("kinds")
+                r.update(score_view(r["points"], truth, said))
                 if name == "ours":
                     curves.append(r["points"])
                     widths.append(r["width_px"])
+                    kinds.append(tuple(said) if said and len(said) == 2 else None)
                 r.pop("points")
             r.pop("width_px", None)
             v[name] = r
         row["views"].append(v)
     if len(imgs) == 2:
-        row["pair"] = (_locate(z, curves, widths, cam) if len(curves) == 2
+        row["pair"] = (_locate(z, curves, widths, kinds, cam) if len(curves) == 2
                        else {"result": "refused"})
         row["pair"]["ends_seen"] = all(k == "joint_end" for v in row["views"]
                                        for k in v["end_kinds"])
@@ -123,11 +127,12 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
 
 
 def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | None],
-            cam: Any) -> dict[str, Any]:
+            kinds: list[tuple[str, str] | None], cam: Any) -> dict[str, Any]:
+    # As the cycle locates (controller/cell/guidance.py): with each view's end kinds and width.
     both = np.intersect1d(z["seam_index0"], z["seam_index1"])
     truth = z["seam_points_mm"][both]
-    views = [ViewObservation(cam, z[f"T{i}"], c, f"view{i + 1}", gap_width_px=w)
-             for i, (c, w) in enumerate(zip(curves, widths, strict=True))]
+    views = [ViewObservation(cam, z[f"T{i}"], c, f"view{i + 1}", k, w)
+             for i, (c, w, k) in enumerate(zip(curves, widths, kinds, strict=True))]
     t0 = time.perf_counter()
     try:
         P3 = locate_seam(views, nominal_region=(np.asarray(z["centre_mm"]),

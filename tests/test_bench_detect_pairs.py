@@ -1,0 +1,35 @@
+"""The detection benchmark locates a pair as the cycle does (controller/cell/guidance.py): with
+each view's end kinds and gap width, so that its pair figures are the product's."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from bench import bench_detect
+from controller.errors import SeamNotFound
+from controller.geometry.camera_model import default_camera
+
+
+def test_pairs_are_located_with_the_detectors_end_kinds(monkeypatch: pytest.MonkeyPatch) -> None:
+    seen: dict[str, Any] = {}
+
+    def fake_locate(views: list[Any], **kw: Any) -> Any:
+        seen["views"], seen["kw"] = views, kw
+        raise SeamNotFound("stop here")
+
+    monkeypatch.setattr(bench_detect, "locate_seam", fake_locate)
+    z = {"seam_index0": np.arange(5), "seam_index1": np.arange(5),
+         "seam_points_mm": np.zeros((5, 3)), "T0": np.eye(4), "T1": np.eye(4),
+         "centre_mm": np.zeros(3), "radius_mm": 50.0}
+    curve = np.array([[10.0, 10.0], [100.0, 100.0]])
+    kinds = [("joint_end", "image_border"), None]
+    out = bench_detect._locate(z, [curve, curve], [4.0, None], kinds, default_camera())
+    assert out["result"] == "refused"
+    v1, v2 = seen["views"]
+    assert v1.end_kinds == ("joint_end", "image_border") and v1.gap_width_px == 4.0
+    assert v2.end_kinds is None and v2.gap_width_px is None
+    centre, radius = seen["kw"]["nominal_region"]
+    assert radius == 70.0 and np.allclose(centre, 0.0)
