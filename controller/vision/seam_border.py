@@ -115,18 +115,29 @@ def rounded_corners(offs: tuple[float, ...], steps: list[list[float]], w: float)
 
 
 def side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
-                   entered: bool = False, bands: bool = False) -> list[float]:
+                   entered: bool = False) -> list[float]:
     """Where the brightness along the line ``ps`` (at offsets ``ks``) steps sharply and lastingly.
+
+    The lasting ones of :func:`side_steps` (the brightness never comes back past half-way: a dot
+    or a glare band on the sheet is left again; the table beyond a border is not), inner first.
+    """
+    return [k for k, lasting in side_steps(grey, lut, ps, ks, entered) if lasting]
+
+
+def side_steps(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
+               entered: bool = False) -> list[tuple[float, bool]]:
+    """(offset, lasting) of each sharp brightness step along the line ``ps`` (at ``ks``).
 
     From well inside the sheet (``ks > -14``) outward: a step is where the median brightness
     over the next 6 px differs from the median over the last 6 px by at least 25 %. A dark
     scratch or a texture stripe is a dip too narrow to move a median, and a gradual change of
     light moves it too slowly. Each step is placed where the brightness passes half-way between
     the two levels, and must be sharp (a few pixels of blur). All steps are returned, inner
-    first: which one is the sheet border is decided across lines (:func:`border_line`).
+    first: which one is the sheet border is decided across lines (:func:`border_line`);
+    ``lasting``: the brightness never comes back past half-way beyond it.
     ``entered``: also drop the far side of a dip (the line was at the outer level just before).
-    ``bands``: also keep a step the brightness comes back from (the near edge of a dark band:
-    a dot, or a gap running across the seam's end at a T-corner); the caller decides which.
+    A step the brightness comes back from (not ``lasting``) is the near edge of a dark band: a
+    dot, or a gap running across the seam's end at a T-corner; the caller decides which.
     """
     val, inside = bilinear(grey, lut, ps[:, 0], ps[:, 1])
     val = np.convolve(np.pad(val, 1, mode="edge"), np.ones(3) / 3, mode="valid")
@@ -143,7 +154,7 @@ def side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
     step = np.abs(ahead - behind)
     big = np.concatenate([[0], (step > _MIN_STEP * np.maximum(np.maximum(behind, ahead), 1e-6))
                           .astype(np.int8), [0]])
-    out: list[float] = []
+    out: list[tuple[float, bool]] = []
     for g0, g1 in zip(np.flatnonzero(np.diff(big) == 1), np.flatnonzero(np.diff(big) == -1),
                       strict=True):
         jj = int(g0) + int(np.argmax(step[g0:g1]))
@@ -171,8 +182,7 @@ def side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
             continue
         # Off the sheet for good: the brightness never comes back past half-way (a dot or a
         # glare band on the sheet is left again; the table beyond a border is not).
-        if not bands and np.any(sgn * (val[k + 2:lim] - half) > 0.2 * amp):
-            continue
+        lasting = not np.any(sgn * (val[k + 2:lim] - half) > 0.2 * amp)
         # The way out of a dot read from inside it; not asked for at the seam's end (there it
         # cost a real photograph).
         if entered and np.any(
@@ -180,5 +190,5 @@ def side_crossings(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
             continue
         v0, v1 = val[k], val[k + 1]
         frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
-        out.append(float(ks[k] + frac * (ks[k + 1] - ks[k])))
+        out.append((float(ks[k] + frac * (ks[k + 1] - ks[k])), bool(lasting)))
     return out

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_border import Border, border_line, side_crossings
+from controller.vision.seam_border import Border, border_line, side_crossings, side_steps
 from controller.vision.seam_params import F64, DetectParams, runs_of
 from controller.vision.seam_profiles import bilinear, fit_at
 
@@ -110,9 +110,11 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     q = e_pt + np.outer(ks, tang)
     delta = w_med / 2 + 2.5
     offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
-    steps = [side_crossings(grey, lut, q + o * nrm, ks) for o in offs]
+    # Each line read once: its lasting steps for the border, all of them for a band before it.
+    marked = [side_steps(grey, lut, q + o * nrm, ks) for o in offs]
+    steps = [[k for k, lasting in m if lasting] for m in marked]
     line = border_line(offs, steps, w_med)
-    line = _band_before(grey, lut, q, nrm, ks, offs, w_med, line)
+    line = _band_before([[k for k, _ in m] for m in marked], offs, w_med, line)
     k_line, unsure = line.k, line.unsure
     if k_line is not None and not all(line.sides) and not _other_side_ends(grey, lut, e_pt, tang,
                                                                           line, offs):
@@ -153,9 +155,11 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     return float(k), kind, beyond
 
 
-def _band_before(grey: NDArray[np.uint8], lut: F64, q: F64, nrm: F64, ks: F64,
-                 offs: tuple[float, ...], w_med: float, line: Border) -> Border:
+def _band_before(steps: list[list[float]], offs: tuple[float, ...], w_med: float,
+                 line: Border) -> Border:
     """``line``, or the near edge of a dark band across the seam before it (a T-corner).
+
+    ``steps``: every step on each line at ``offs`` (:func:`side_steps`, lasting or not).
 
     A gap running across the seam's end (the crossbar of a T, the slot to the next plate) is a
     dark band the brightness comes back from, which :func:`side_crossings` drops (a dot on a
@@ -164,7 +168,6 @@ def _band_before(grey: NDArray[np.uint8], lut: F64, q: F64, nrm: F64, ks: F64,
     the gap (a dot is not; the centreline need not step: the band may be as dark as the gap)
     and nearer than ``line`` (or ``line`` is none).
     """
-    steps = [side_crossings(grey, lut, q + o * nrm, ks, bands=True) for o in offs]
     near = border_line(offs, steps, w_med)
     if near.k is None or (line.k is not None and near.k > line.k - 3.0):
         return line
