@@ -302,3 +302,15 @@ def test_the_gap_is_followed_to_the_sheets_end_where_the_path_runs_straight_on()
     img, truth, cam = _rendered_view(("wide", "hard", "tuning", 10066), 0)
     det = detect_seam(img, camera=cam)
     assert score_view(det.points_px, truth, end_kinds_of(det))["result"] == "found"
+
+
+def test_a_wide_gap_between_rounded_corners_is_ended_at_the_corners() -> None:
+    # Wide medium tuning 10027, view 0 (a wide gap between two sheets with rounded corners on a
+    # dark table): the valley path ran on past the corners into the table, where nothing steps,
+    # and the seam was refused as fading out inside a sheet. The end is read again further back
+    # (seam_ends._backed_off).
+    from bench.detect_score import end_kinds_of, score_view
+
+    img, truth, cam = _rendered_view(("wide", "medium", "tuning", 10027), 0)
+    det = detect_seam(img, camera=cam)
+    assert score_view(det.points_px, truth, end_kinds_of(det))["result"] == "found"

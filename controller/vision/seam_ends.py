@@ -3,6 +3,9 @@
 :func:`end_offset` reads each side of the gap on lines parallel to the centreline and finds where a
 sheet border crosses them (a straight border: its crossings lie on one line); :func:`measure_tails`
 measures the last stretch before an end again with short profiles, which a border does not reach.
+An end point that ran on past the sheets (over the table, or past two rounded corners) is read
+again from before it (:func:`_read_back`, :func:`_backed_off`); whether the gap goes on beyond
+a patch on the joint is :func:`controller.vision.seam_resume.gap_resumes`.
 """
 
 from __future__ import annotations
@@ -13,8 +16,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.vision.seam_border import Border, border_line, side_crossings, side_steps
-from controller.vision.seam_params import F64, DetectParams, runs_of
+from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_profiles import bilinear, fit_at
+from controller.vision.seam_resume import RESUME_RUN_PX, gap_resumes
 
 
 def measure_tails(grey: NDArray[np.uint8], lut: F64, guides: list[F64], ders: list[F64],
@@ -85,6 +89,86 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
                w_med: float, chord: F64 | None = None) -> tuple[float, str, F64 | None]:
     """Distance (px, along ``tang``) from ``e_pt`` to the seam's end, and what ends it there.
 
+    As :func:`_end_at`, which reads the end within about 20 px of ``e_pt``, from where it can be
+    read (:func:`_read_back`): where that finds nothing (``"open"``) because ``e_pt`` has run on
+    past the sheets over a dark table (between two rounded plate corners a wide gap merges with
+    the table and the line followed runs on into it), the end is read again further back
+    (:func:`_backed_off`). A line that fades out inside a sheet has the sheet around its end,
+    not the table: it stays open.
+    """
+    res = _read_back(grey, lut, e_pt, tang, w_med, chord)
+    if res[1] != "open":
+        return res
+    return _backed_off(grey, lut, e_pt, tang, w_med, chord) or res
+
+
+_BACK_STEP_PX = 16.0  # steps back along the seam to read an end from
+
+
+def _read_back(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float,
+               chord: F64 | None) -> tuple[float, str, F64 | None]:
+    """:func:`_end_at` at ``e_pt``, read again ``_BACK_STEP_PX`` before a border seen too late.
+
+    Where the lines next to the gap show no step at all and a border is read off the outer
+    lines alone, ``e_pt`` is past where the sheets stopped facing each other (the inner lines
+    left them before the window begins): past two rounded corners, the outer lines step
+    where the corners have receded further than the end is defined by. The end is read again
+    from ``_BACK_STEP_PX`` before the border found, and taken when the inner lines step there
+    and no other border is as well supported (not ``"unsure"``); otherwise the border read off
+    the outer lines is kept as ``"unsure sheet border"``: the end may lie well before it.
+    """
+    k, kind, beyond, outer_only = _end_at(grey, lut, e_pt, tang, w_med, chord)
+    if kind.endswith("sheet border") and outer_only:
+        back = k - _BACK_STEP_PX
+        k2, kind2, beyond2, outer2 = _end_at(grey, lut, e_pt + back * tang, tang, w_med, chord)
+        if kind2 == "sheet border" and not outer2:
+            return back + k2, kind2, beyond2
+        # Not confirmed: the end may lie well before the point read.
+        kind = "unsure sheet border"
+    return k, kind, beyond
+
+
+def _backed_off(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float,
+                chord: F64 | None) -> tuple[float, str, F64 | None] | None:
+    """The end read back from ``e_pt`` when ``e_pt`` lies beyond the sheets, over the table.
+
+    Steps back by ``_BACK_STEP_PX`` up to three gap widths (at least 64 px) until an end is read;
+    it counts only as a sheet border before ``e_pt`` with ``e_pt`` itself over the table: on the
+    lines beside it (half the gap plus 12 px out, 8 px on either side of ``e_pt`` along), even
+    the brighter side's 90th percentile is under half the sheets' level read 10-20 px before
+    that border (the darker side's median).
+    """
+    nrm = np.array([-tang[1], tang[0]])
+    off = w_med / 2 + 12.0
+    for d in np.arange(_BACK_STEP_PX, max(64.0, 3.0 * w_med) + 1e-9, _BACK_STEP_PX):
+        k, kind, beyond = _read_back(grey, lut, e_pt - d * tang, tang, w_med, chord)
+        if kind == "open":
+            continue
+        if not kind.endswith("sheet border") or k > d:
+            return None
+        levels = []
+        for at, span in ((k - d - 15.0, 5.0), (0.0, 8.0)):
+            ks = np.arange(-span, span + 1e-9, 1.0)
+            sides = []
+            for o in (-off, off):
+                q = e_pt + o * nrm + np.outer(at + ks, tang)
+                val, inside = bilinear(grey, lut, q[:, 0], q[:, 1])
+                sides.append(val[inside])
+            levels.append(sides)
+        if min(len(v) for sides in levels for v in sides) < 3:
+            return None
+        sheet = min(float(np.median(v)) for v in levels[0])
+        here = max(float(np.percentile(v, 90)) for v in levels[1])
+        return (k - d, kind, beyond) if here < 0.5 * sheet else None
+    return None
+
+
+def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float,
+            chord: F64 | None = None) -> tuple[float, str, F64 | None, bool]:
+    """Distance (px, along ``tang``) from ``e_pt`` to the seam's end, and what ends it there.
+
+    (The fourth value: no step at all on the two lines next to the gap.)
+
     The kind is ``"sheet border"``, ``"image border"``, ``"open"`` (the gap fades out inside a
     sheet: a pen mark or scratch does that, a joint does not) or ``"covered"`` (something on the
     joint stops the gap, which goes on beyond it: :func:`gap_resumes`). The third value is the
@@ -116,6 +200,7 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     line = border_line(offs, steps, w_med)
     line = _band_before([[k for k, _ in m] for m in marked], offs, w_med, line)
     k_line, unsure = line.k, line.unsure
+    outer_only = not steps[1] and not steps[3]
     if k_line is not None and not all(line.sides) and not _other_side_ends(grey, lut, e_pt, tang,
                                                                           line, offs):
         # The border crosses one side of the line only: one plate turns away, the other side
@@ -146,13 +231,13 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
             # ring), not the end of the sheets nor of a line: the same gap goes on beyond it.
             kind = "covered"
         elif border and _sheets_end(grey, lut, e_pt + k * tang, tang, w_med):
-            return float(k), kind, None
+            return float(k), kind, None, outer_only
         elif border:
             # Not the joint's end. Near the image border the gap beyond cannot be seen: the
             # view of the seam stops here; elsewhere the seam is covered and this piece is not
             # a seam by itself.
             kind = "image border" if k_border - k < _VERIFY_PX else "covered"
-    return float(k), kind, beyond
+    return float(k), kind, beyond, outer_only
 
 
 def _band_before(steps: list[list[float]], offs: tuple[float, ...], w_med: float,
@@ -235,117 +320,10 @@ def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
     return False
 
 
-_RESUME_REACH_PX = 260.0  # longest covered stretch looked across (a tack weld ~5-12 mm)
-_RESUME_RUN_PX = 40.0  # the gap must be seen again over this length, in one run
 _FAR_PX = 48.0  # beside the joint, past the half width of a tack bead
 # Room needed beyond a sheet-border end to tell it from a tack weld: a bead (up to ~80 px in the
 # dry run's and the photographs' views) and a run of the gap beyond it.
-_VERIFY_PX = 80.0 + _RESUME_RUN_PX
-_FAN_DEG = tuple(float(a) for a in range(-16, 17, 4))  # 4 deg: +-8 px at 115 px
-
-
-def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med: float,
-                room_px: float) -> F64 | None:
-    """Where the gap (median width ``w_med`` px) is seen again beyond ``end_pt`` (px), or None.
-
-    Looks along ``tang`` (unit, pointing out of the seam) from 12 px past the end to
-    ``_RESUME_REACH_PX`` (or ``room_px``, the distance to the image border), in a fan of
-    directions (a curved seam leaves a straight line: +-16 deg around the seam's chord covers
-    a radius down to about the reach), for a run of at least ``_RESUME_RUN_PX`` of profiles
-    that fit a gap of about the same width close to the line, between the same sheets (their
-    levels within 35 % of those just before the end). A sheet border has the table beyond it;
-    a tack weld or a spatter ball has the same joint beyond it. Returns the measured centres of
-    the longest such run (M, 2) px, in order away from the end.
-    """
-    p = DetectParams()  # the defaults: what a gap profile is does not depend on a caller's tuning
-    reach = min(_RESUME_REACH_PX, room_px - 6.0)
-    if reach < 12.0 + _RESUME_RUN_PX:
-        return None
-    ks = np.arange(12.0, reach, p.step_px)
-    need = int(np.ceil(_RESUME_RUN_PX / p.step_px))
-    dirs = []
-    for a in np.radians(_FAN_DEG):
-        c, s = np.cos(a), np.sin(a)
-        dirs.append(np.array([c * tang[0] - s * tang[1], s * tang[0] + c * tang[1]]))
-    # The sheets on each side, read just before the end: beyond a patch the same sheets go on;
-    # beyond a sheet border a valley on the table (a slot, a plate edge) has other sides.
-    kb = np.arange(16.0, 80.0, p.step_px)
-    pb = end_pt - np.outer(kb, tang)
-    fb = fit_at(grey, lut, pb, np.tile([-tang[1], tang[0]], (len(kb), 1)), p)
-    if int(fb["valid"].sum()) < 4:
-        return None
-    sides = np.array([np.median(fb["left"][fb["valid"]]), np.median(fb["right"][fb["valid"]])])
-    ok = np.zeros((len(dirs), len(ks)), bool)
-    centres = np.zeros((len(dirs), len(ks), 2))
-    # Every third profile first: a run of ``need`` (>= 9) profiles holds three consecutive ones
-    # of them, a run of 4 to the border one; only the directions that show that are fitted in
-    # full (the profiles are fitted independently, so the result is the same, at a third of the
-    # cost where nothing goes on beyond the end, the usual case).
-    coarse = np.arange(0, len(ks), 3)
-    ok[:, coarse], centres[:, coarse] = _resume_fit(grey, lut, end_pt, dirs, ks[coarse], w_med,
-                                                    sides, p)
-    near_border = reach < _RESUME_REACH_PX
-    keep = [i for i in range(len(dirs))
-            if max((b - a for a, b in runs_of(ok[i, coarse])), default=0) >= 3
-            or (near_border and ok[i, coarse[coarse >= len(ks) - 4]].any())]
-    rest = np.setdiff1d(np.arange(len(ks)), coarse)
-    if keep and len(rest):
-        sub = [dirs[i] for i in keep]
-        o, c = _resume_fit(grey, lut, end_pt, sub, ks[rest], w_med, sides, p)
-        rows = np.array(keep, dtype=np.intp)
-        ok[np.ix_(rows, rest)], centres[np.ix_(rows, rest)] = o, c
-    ok[[i for i in range(len(dirs)) if i not in keep]] = False
-    best: tuple[int, F64] | None = None
-    for row, cen in zip(ok, centres, strict=True):
-        runs = runs_of(row)
-        if not runs:
-            continue
-        a, b = max(runs, key=lambda r: r[1] - r[0])
-        n = b - a
-        # A gap seen again up to the image border needs less length: there is no more to see.
-        la, lb = runs[-1]
-        if (reach < _RESUME_REACH_PX and lb == len(ks) and (lb - la) * p.step_px >= 16
-                and n < need):
-            (a, b), n = runs[-1], need
-        run = cen[a:b]
-        if n >= need and (best is None or n > best[0]) and _continues(run, end_pt, tang):
-            best = (n, run)
-    return None if best is None else np.asarray(best[1])
-
-
-def _resume_fit(grey: NDArray[np.uint8], lut: F64, end_pt: F64, dirs: list[F64], ks: F64,
-                w_med: float, sides: F64, p: DetectParams) -> tuple[NDArray[np.bool_], F64]:
-    """Per direction and distance of :func:`gap_resumes`: a gap there, and its centre (px).
-
-    A gap: the profile fits a gap of about ``w_med`` px close to the line, between sheets of
-    about the levels ``sides`` (left, right: linear radiance).
-    """
-    pts = np.vstack([end_pt + np.outer(ks, d) for d in dirs])
-    nrm = np.vstack([np.tile([-d[1], d[0]], (len(ks), 1)) for d in dirs])
-    fit = fit_at(grey, lut, pts, nrm, p)
-    off = np.einsum("kd,kd->k", fit["centre"] - pts, nrm)
-    ok = (fit["valid"] & (np.abs(off) < 8.0) & (fit["width"] < 2.0 * w_med + 2.0)
-          & (fit["width"] > 0.4 * w_med - 1.0)
-          & (np.abs(fit["left"] - sides[0]) <= 0.35 * sides[0])
-          & (np.abs(fit["right"] - sides[1]) <= 0.35 * sides[1]))
-    return ok.reshape(len(dirs), len(ks)), fit["centre"].reshape(len(dirs), len(ks), 2)
-
-
-def _continues(run: F64, end_pt: F64, tang: F64) -> bool:
-    """Whether ``run`` (px, outward) continues the seam ending at ``end_pt`` along ``tang``.
-
-    Close to the seam's line (lateral offset at most 6 px + 15 % of the distance: a curve of
-    radius 500 px stays inside over 250 px) and in about its direction (20 deg): a line
-    parallel to the seam beside it (a pen line beside the joint, the joint beside a pen line)
-    is another line, not the same gap beyond a patch.
-    """
-    nrm = np.array([-tang[1], tang[0]])
-    rel = run - end_pt
-    along, lat = rel @ tang, rel @ nrm
-    if np.any(np.abs(lat) > 6.0 + 0.15 * np.maximum(along, 0.0)):
-        return False
-    d = run[-1] - run[0]
-    return bool(d @ tang > np.cos(np.radians(20.0)) * np.linalg.norm(d))
+_VERIFY_PX = 80.0 + RESUME_RUN_PX
 
 
 def _border_crossing(e_pt: F64, tang: F64, W: int, H: int, default: float) -> float:
