@@ -141,6 +141,10 @@ def _backed_off(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: 
     nrm = np.array([-tang[1], tang[0]])
     off = w_med / 2 + 12.0
     for d in np.arange(_BACK_STEP_PX, max(64.0, 3.0 * w_med) + 1e-9, _BACK_STEP_PX):
+        # (Where the point is over the table there is nothing to look beyond for: the sheets
+        # are read first, and the whole reading is done only where they show a border.)
+        if _end_at(grey, lut, e_pt - d * tang, tang, w_med, chord, sheets_only=True)[1] == "open":
+            continue
         k, kind, beyond = _read_back(grey, lut, e_pt - d * tang, tang, w_med, chord)
         if kind == "open":
             continue
@@ -164,10 +168,14 @@ def _backed_off(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: 
 
 
 def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float,
-            chord: F64 | None = None) -> tuple[float, str, F64 | None, bool]:
+            chord: F64 | None = None, sheets_only: bool = False
+            ) -> tuple[float, str, F64 | None, bool]:
     """Distance (px, along ``tang``) from ``e_pt`` to the seam's end, and what ends it there.
 
-    (The fourth value: no step at all on the two lines next to the gap.)
+    (The fourth value: no step at all on the two lines next to the gap. ``sheets_only``: the
+    kind as the lines beside the gap read it, without looking beyond the end for the gap going
+    on (:func:`gap_resumes`, most of the time taken): where that says "open", no border crosses
+    the lines here, whatever is beyond.)
 
     The kind is ``"sheet border"``, ``"image border"``, ``"open"`` (the gap fades out inside a
     sheet: a pen mark or scratch does that, a joint does not) or ``"covered"`` (something on the
@@ -218,6 +226,8 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
     if k_border <= k:
         k, kind = k_border, "image border"
     beyond = None
+    if sheets_only:
+        return float(k), kind, beyond, outer_only
     border = kind.endswith("sheet border")
     if border or kind == "open":
         # A step on the joint (a bead on it), or a line that fades out: is the same gap seen
