@@ -38,6 +38,18 @@ def test_a_crossing_pen_line_crosses_the_joint():
     assert len(sc.pen_lines_mm()) == 2
 
 
+def test_a_crossing_pen_line_on_a_short_joint_stays_on_it():
+    # Wide medium tuning 10255: a joint shorter than the crossing line drawn for it made the
+    # scene generator fail (an empty range for the line's middle).
+    from bench.detect_cases import make_case_scene
+
+    sc = make_case_scene(("wide", "medium", "tuning", 10255))
+    cross = [d for d in sc.decals if d.kind == "pen_cross"]
+    assert len(cross) == 1
+    P = np.asarray(cross[0].points)
+    assert -sc.chord_mm / 2 < P[:, 0].min() and P[:, 0].max() < sc.chord_mm / 2
+
+
 def test_tacks_and_spatter_on_the_joint_give_the_occluded_spans():
     sc = _scene(tacks=3, spatter=6)
     over = [d for d in sc.decals if d.layer == "over"]

@@ -239,7 +239,8 @@ def _pens(scene: Scene, rng: np.random.Generator) -> list[Decal]:
                          kind="pen_parallel",
                          points=tuple((float(x), float(y)) for x, y in zip(a, b, strict=True))))
     if look.pen_cross and look.pens:
-        ln = float(rng.uniform(20.0, 80.0))
+        # (On a joint shorter than the line would be, the line is as long as the joint allows.)
+        ln = min(float(rng.uniform(20.0, 80.0)), 2 * half - 12.0)
         ac = float(rng.uniform(-half + ln / 2 + 5, half - ln / 2 - 5))
         ang = float(rng.uniform(0.05, 0.5)) * float(rng.choice([-1.0, 1.0]))
         a = np.linspace(ac - ln / 2 * np.cos(ang), ac + ln / 2 * np.cos(ang), 20)
