@@ -5,7 +5,7 @@ the joint itself are both thin dark lines; where each runs out of the image at b
 they end cannot tell them apart, and the detector may take either (or only one of them is among
 its candidates at all: a wide gap the profile model does not fit, a faint pen line). Across the
 returned line, the straightened strip of the image (``p.pattern_offset_px`` each side, a row
-every 4 px along the line) is read for valleys at every offset: a line seen as a valley on
+every 12 px along the line) is read for valleys at every offset: a line seen as a valley on
 about as many rows as the returned line itself, at a constant offset beside it, is a second
 candidate for the joint, and the choice is refused (:func:`parallel_valley`).
 """
@@ -33,6 +33,7 @@ OWN_SHARE = 0.9
 #: beside it on more (real photograph 1_x3: 39 % against 68 %, a joint).
 MIN_OWN = 0.5
 _WOBBLE = 2  # px: a hand-drawn line wanders; its valley is looked for within this of an offset
+_ROW_PX = 12.0  # px between the rows read across the seam (a share of rows needs no more)
 
 
 def parallel_valley(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
@@ -45,7 +46,7 @@ def parallel_valley(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: fl
     share of rows the line itself shows a valley on (within 3 px of it), or when the line itself
     is seen so on under ``MIN_OWN`` of them.
     """
-    pts, nrm = resample(points, 4.0, extend=0.0)
+    pts, nrm = resample(points, _ROW_PX, extend=0.0)
     pad = max(SIDES_PX)
     reach = float(p.pattern_offset_px)
     off = np.arange(-reach - pad, reach + pad + 0.5, 1.0)
