@@ -1,5 +1,5 @@
 """A seam leaving the image at both ends with a second line parallel to it is not chosen
-(controller/vision/seam_parallel.py, seam_detect._no_parallel_valley). Drawn images
+(controller/vision/seam_parallel.py: parallel_valley, no_parallel_valley). Drawn images
 (tests/drawn_plates.py): two sheets meeting along a gap that runs out of the image at both ends,
 with or without a pen line drawn parallel to it; and a rendered tuning view where the pen line
 was returned as the seam."""

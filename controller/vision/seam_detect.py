@@ -58,7 +58,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controller.errors import AmbiguousSeam, InputError, SeamguideError, SeamNotFound
+from controller.errors import InputError, SeamguideError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
 from controller.vision.seam_coarse import (
@@ -75,12 +75,11 @@ from controller.vision.seam_decision import (
     orient,
     public_end_kinds,
     spans_of,
-    summary_px,
 )
-from controller.vision.seam_parallel import parallel_valley
+from controller.vision.seam_parallel import no_parallel_valley
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_pattern import mark_table_lines, straight_lines, straightener
-from controller.vision.seam_profiles import linear_lut, resample
+from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import robust_candidates
 
 #: Marks the lines of a table among candidates (seam_pattern.mark_table_lines, bound to an image).
@@ -200,7 +199,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         except SeamNotFound:
             pass
         else:
-            _no_parallel_valley(sub, lut, best, hint_arr, p, x0, y0)
+            no_parallel_valley(sub, lut, best, hint_arr, p, x0, y0)
             return _detection(best, ratio, conf, reasons, both, x0, y0)
         # The gap is not the clean two-edge valley the profiles fit (ragged, wide, covered by
         # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
@@ -213,35 +212,8 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
         reasons.append("found as a whole-image valley path (the two-edge profile model did not "
                        "fit the gap)")
-    _no_parallel_valley(sub, lut, best, hint_arr, p, x0, y0)
+    no_parallel_valley(sub, lut, best, hint_arr, p, x0, y0)
     return _detection(best, ratio, conf, reasons, cands, x0, y0)
-
-
-def _no_parallel_valley(sub: NDArray[np.uint8], lut: F64, best: Candidate, hint: F64 | None,
-                        p: DetectParams, x0: int, y0: int) -> None:
-    """Raise :class:`AmbiguousSeam` if ``best`` leaves the image at both ends beside a line.
-
-    The line: a second valley (:func:`controller.vision.seam_parallel.parallel_valley`), unless
-    the nominal seam ``hint`` (px, the searched image's frame) sets it aside as it sets aside
-    candidates (60 px mean distance): the job's nominal region is what resolves the choice.
-    """
-    if best.points is None or any(k != "image border" for k in best.end_kinds):
-        return
-    width = float(np.median(best.width)) if best.width is not None else 0.0
-    found = parallel_valley(sub, lut, best.points, width, p)
-    if found is not None:
-        off, share, own = found
-        if hint is not None:
-            pts, nrm = resample(best.points, p.step_px, extend=0.0)
-            if mean_dist(pts + off * nrm, hint) >= 60.0:
-                return
-        raise AmbiguousSeam(
-            f"a second line runs parallel to the seam candidate, {abs(off):.0f} px beside it, "
-            f"seen as a valley along {100 * share:.0f} % of it (the candidate: {100 * own:.0f} "
-            "%); both leave the image at both ends, so how they end cannot tell which is the "
-            "joint (a pen or soapstone line drawn beside it looks like it); refusing to choose: "
-            "give a --roi or a nominal seam hint", best_px=summary_px(best, x0, y0),
-            parallel_offset_px=round(off, 1))
 
 
 def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: TableCheck,

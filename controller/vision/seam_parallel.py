@@ -7,7 +7,8 @@ its candidates at all: a wide gap the profile model does not fit, a faint pen li
 returned line, the straightened strip of the image (``p.pattern_offset_px`` each side, a row
 every 12 px along the line) is read for valleys at every offset: a line seen as a valley on
 about as many rows as the returned line itself, at a constant offset beside it, is a second
-candidate for the joint, and the choice is refused (:func:`parallel_valley`).
+candidate for the joint, and the choice is refused (:func:`parallel_valley`,
+:func:`no_parallel_valley`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_params import F64, DetectParams
+from controller.errors import AmbiguousSeam
+from controller.vision.seam_coarse import mean_dist
+from controller.vision.seam_decision import summary_px
+from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import bilinear, resample
 
 #: Relative depth (darker side minus centre, over the darker side) of a valley at an offset.
@@ -84,3 +88,30 @@ def parallel_valley(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: fl
             b += 1
         return float(0.5 * (o[a] + o[b])), best, own
     return None
+
+
+def no_parallel_valley(sub: NDArray[np.uint8], lut: F64, best: Candidate, hint: F64 | None,
+                       p: DetectParams, x0: int, y0: int) -> None:
+    """Raise :class:`AmbiguousSeam` if ``best`` leaves the image at both ends beside a line.
+
+    The line: a second valley (:func:`parallel_valley`), unless
+    the nominal seam ``hint`` (px, the searched image's frame) sets it aside as it sets aside
+    candidates (60 px mean distance): the job's nominal region is what resolves the choice.
+    """
+    if best.points is None or any(k != "image border" for k in best.end_kinds):
+        return
+    width = float(np.median(best.width)) if best.width is not None else 0.0
+    found = parallel_valley(sub, lut, best.points, width, p)
+    if found is not None:
+        off, share, own = found
+        if hint is not None:
+            pts, nrm = resample(best.points, p.step_px, extend=0.0)
+            if mean_dist(pts + off * nrm, hint) >= 60.0:
+                return
+        raise AmbiguousSeam(
+            f"a second line runs parallel to the seam candidate, {abs(off):.0f} px beside it, "
+            f"seen as a valley along {100 * share:.0f} % of it (the candidate: {100 * own:.0f} "
+            "%); both leave the image at both ends, so how they end cannot tell which is the "
+            "joint (a pen or soapstone line drawn beside it looks like it); refusing to choose: "
+            "give a --roi or a nominal seam hint", best_px=summary_px(best, x0, y0),
+            parallel_offset_px=round(off, 1))
