@@ -145,9 +145,8 @@ def _backed_off(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: 
         # are read first, and the whole reading is done only where they show a border.)
         if _end_at(grey, lut, e_pt - d * tang, tang, w_med, chord, sheets_only=True)[1] == "open":
             continue
+        # (Not open here, nor after: the whole reading only adds a covered or image-border end.)
         k, kind, beyond = _read_back(grey, lut, e_pt - d * tang, tang, w_med, chord)
-        if kind == "open":
-            continue
         if not kind.endswith("sheet border") or k > d:
             return None
         levels = []
