@@ -37,7 +37,7 @@ from drivers.sim.sim_scene import DIFFICULTIES, KINDS, make_scene
 #: worktree can use another's renders: rendering the full set takes an hour or more here).
 CACHE = Path(os.environ.get("SEAMGUIDE_DETECT_CACHE",
                             Path(__file__).resolve().parent / "cache" / "detect"))
-CACHE_TAG = "v3"  # v3: the tuning part's slotted table has slots from 0.6 mm
+CACHE_TAG = "v4"  # v4: a dark line at the ground strips' outer edges (shop look)
 #: First seed of each set (disjoint seed ranges, then split by sim_look.split_of).
 SEED_START = {"wide": 10000, "pen": 50000}
 #: A case: (set, difficulty, split, seed).

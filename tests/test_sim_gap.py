@@ -92,3 +92,22 @@ def test_plate_edge_shadow_darkens_one_side_only():
     # the seam's "b" side is on one side of the image profile; exactly one side is darker
     dark_side = [np.median(ratio[side == s]) < 0.6 for s in (-1, 1)]
     assert sorted(dark_side) == [False, True]
+
+
+def test_ground_strip_edge_is_a_thin_dark_line_between_strip_and_sheet():
+    # The grinder leaves a crisp dark line where the ground strip ends (real photographs 1_x1,
+    # 1_x2: a line parallel to the joint, bright strip on one side, rusty sheet on the other).
+    strip = dict(ground_mm=(2.0, 2.0), ground_gain=1.6)
+    x, plain, r = profile(scene(**strip), half=24)
+    lined = profile(scene(**strip, ground_edge_mm=0.4, ground_edge_depth=0.7), half=24)[1]
+    px_mm = r.gap_px / 1.6
+    for s in (-1, 1):
+        side = (s * x > 0.5 * r.gap_px + 2)
+        i = np.flatnonzero(side)[np.argmin(lined[side])]
+        # the darkest point beside the gap is the strip's edge (wavy by up to 1.5 mm)
+        assert abs(abs(x[i]) - 2.0 * px_mm) < 1.6 * px_mm
+        inside = side & (np.abs(x) < abs(x[i]) - 2) & (np.abs(x) > 0.5 * r.gap_px + 1)
+        outside = side & (np.abs(x) > abs(x[i]) + 2)
+        assert lined[i] < 0.6 * np.median(lined[inside])
+        assert lined[i] < 0.75 * np.median(lined[outside])
+        assert plain[i] > 0.9 * np.median(plain[outside])  # no line without it

@@ -90,3 +90,7 @@ def test_close_ups_are_dark_noisy_defocused_and_tinted():
             if sc.look.family == "shop"]
     assert shop and all(sc.look.rust > 0 and sc.look.ground_mm[0] > 0 and sc.look.ridge_mm > 0
                         for sc in shop)
+    # most ground strips end in a grinder's dark line (photographs 1_x1, 1_x2), some softly
+    lined = [sc.look.ground_edge_mm > 0 for sc in shop]
+    assert 0 < sum(lined) < len(lined)
+    assert all(0.3 <= sc.look.ground_edge_depth <= 0.85 for sc in shop if sc.look.ground_edge_mm)

@@ -119,17 +119,38 @@ def gap_profile(scene: Scene, a: F32, d: F32, rr: NDArray[Any], cc: NDArray[Any]
     return out.astype(np.float32)
 
 
+def _ground_width(scene: Scene, a: F32, d: F32) -> F32:
+    """Width (mm) of the ground strip on each point's side of the joint, wavy along it."""
+    look = scene.look
+    assert look is not None
+    ph = float(np.random.default_rng(scene.seed).uniform(0, 2 * np.pi))
+    wav = np.float32(1.5) * np.sin(a / np.float32(17.0) + np.float32(ph))
+    return np.where(d < 0, np.float32(look.ground_mm[0]), np.float32(look.ground_mm[1])) + wav
+
+
 def ground_gain(scene: Scene, a: F32, d: F32) -> F32:
     """Brightness gain (>= 1) of the ground strips beside the gap, with wavy soft outer edges."""
     look = scene.look
     assert look is not None
     if look.ground_mm == (0.0, 0.0):
         return np.ones_like(d)
-    ph = float(np.random.default_rng(scene.seed).uniform(0, 2 * np.pi))
-    wav = np.float32(1.5) * np.sin(a / np.float32(17.0) + np.float32(ph))
-    width = np.where(d < 0, np.float32(look.ground_mm[0]), np.float32(look.ground_mm[1])) + wav
-    m = np.clip(width - np.abs(d) + 0.5, 0.0, 1.0)
+    m = np.clip(_ground_width(scene, a, d) - np.abs(d) + 0.5, 0.0, 1.0)
     return np.asarray(1.0 + np.float32(look.ground_gain - 1.0) * np.nan_to_num(m), np.float32)
+
+
+def ground_edge(scene: Scene, a: F32, d: F32) -> F32:
+    """Brightness factor (<= 1) of the thin dark line at each ground strip's outer edge.
+
+    The line is centred on the middle of the strip's soft edge (where :func:`ground_gain` is
+    half way), ``ground_edge_mm`` wide at half depth, darkening by ``ground_edge_depth``.
+    """
+    look = scene.look
+    assert look is not None
+    if look.ground_mm == (0.0, 0.0) or look.ground_edge_mm <= 0.0:
+        return np.ones_like(d)
+    off = (np.abs(d) - _ground_width(scene, a, d)) / np.float32(look.ground_edge_mm / 2)
+    line = np.exp(np.float32(-np.log(2.0)) * np.nan_to_num(off, nan=1e3) ** 2)
+    return np.asarray(1.0 - np.float32(look.ground_edge_depth) * line, np.float32)
 
 
 def corner_cover(scene: Scene, a: F32, d: F32) -> F32:

@@ -70,7 +70,10 @@ class Look:
     sheet falls away from the joint). ``face_a/b``: cut-face brightness. ``step_shadow_mm``: width
     of the shadow a higher plate edge casts beside the gap on side ``step_side`` (-1 sheet A,
     +1 sheet B), darkened by ``step_depth``. ``ground_mm``: ground strip width per side,
-    ``ground_gain`` its brightness, ``ridge_mm``/``ridge_gain`` the bright specular ridge at the
+    ``ground_gain`` its brightness, ``ground_edge_mm``/``ground_edge_depth`` the width and
+    darkening of the thin dark line the grinder leaves at the strip's outer edge (a small step
+    down into the strip: a crisp line parallel to the joint, bright strip on one side, rusty
+    sheet on the other; 0: none), ``ridge_mm``/``ridge_gain`` the bright specular ridge at the
     gap edge. ``rust``: 0..1 rust cover; ``pits``: pits per 100 mm^2. ``corner_mm``: radius of the
     plate corners at the joint's ends. ``key_shadow``: (a, b, angle, penumbra_mm, depth) of a soft
     half-plane shadow or ``()``. ``ring_glare``: ring-light specular strength. ``spot``: a spot
@@ -94,6 +97,8 @@ class Look:
     step_depth: float = 0.0
     ground_mm: tuple[float, float] = (0.0, 0.0)
     ground_gain: float = 1.0
+    ground_edge_mm: float = 0.0
+    ground_edge_depth: float = 0.0
     ridge_mm: float = 0.0
     ridge_gain: float = 0.0
     rust: float = 0.0
@@ -220,6 +225,12 @@ def draw_look(rng: np.random.Generator, seed: int, difficulty: str, variety: str
                     ragged_mm=float(rng.uniform(0.1, 0.3)) * base["gap_mm"] + 0.03)
         if look["cast_bgr"] is None:
             look["cast_bgr"] = (0.85, 0.95, 1.05)
+        # Drawn from a stream of its own: every scene drawn before the edge line was added keeps
+        # all its other values.
+        erng = np.random.default_rng([seed, 0x9E])
+        if erng.random() < 0.7:
+            look.update(ground_edge_mm=float(erng.uniform(0.15, 0.5)),
+                        ground_edge_depth=float(erng.uniform(0.3, 0.85)))
     if family == "closeup":
         look.update(spot=float(rng.uniform(0.5, 1.5)), cast_bgr=(
             float(rng.uniform(0.45, 0.7)), 1.0, float(rng.uniform(0.4, 0.65))),

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from controller.geometry.camera_model import CameraModel
 from controller.geometry.poses import invert
-from drivers.sim.sim_gap import corner_cover, gap_band_mm, gap_profile, ground_gain
+from drivers.sim.sim_gap import corner_cover, gap_band_mm, gap_profile, ground_edge, ground_gain
 from drivers.sim.sim_light import lighting
 from drivers.sim.sim_scene import Scene
 from drivers.sim.sim_texture import (
@@ -129,11 +129,12 @@ def radiance(scene: Scene, cam: CameraModel, T_base_cam: F64) -> tuple[F32, floa
     else:
         dec_v = dec_p[:, :, 0].astype(np.float32) / 255.0 * alpha_p
         ground = ground_gain(scene, a, d)
+        edge = ground_edge(scene, a, d)
         if tex.rust is not None:
             rust_w = sample_map(tex.rust, a, b, tex.a0, tex.b0, RUST_MM) * (ground <= 1.0)
         sides: list[F32] = []
         for alb, br in ((scene.albedo_a, brush_a), (scene.albedo_b, brush_b)):
-            al = np.float32(alb) * (1 + c * br) * ground
+            al = np.float32(alb) * (1 + c * br) * ground * edge
             if rust_w is not None:
                 al = al * (1 - np.float32(0.65) * rust_w)
             sides.append(((al * (1 - alpha_p) + dec_v) * gain + spec * metal * ground)
