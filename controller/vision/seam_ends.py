@@ -135,8 +135,8 @@ def _backed_off(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: 
     Steps back by ``_BACK_STEP_PX`` up to three gap widths (at least 64 px) until an end is read;
     it counts only as a sheet border before ``e_pt`` with ``e_pt`` itself over the table: on the
     lines beside it (half the gap plus 12 px out, 8 px on either side of ``e_pt`` along), even
-    the brighter side's 90th percentile is under half the sheets' level read 10-20 px before
-    that border (the darker side's median).
+    the brighter side is darker than the sheets read 10-20 px before that border (the darker
+    side's median; :func:`darker_than_sheets`).
     """
     nrm = np.array([-tang[1], tang[0]])
     off = w_med / 2 + 12.0
@@ -161,9 +161,20 @@ def _backed_off(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: 
         if min(len(v) for sides in levels for v in sides) < 3:
             return None
         sheet = min(float(np.median(v)) for v in levels[0])
-        here = max(float(np.percentile(v, 90)) for v in levels[1])
-        return (k - d, kind, beyond) if here < 0.5 * sheet else None
+        brighter = max(levels[1], key=lambda v: float(np.percentile(v, 90)))
+        return (k - d, kind, beyond) if darker_than_sheets(brighter, sheet) else None
     return None
+
+
+def darker_than_sheets(beside: F64, sheet_level: float) -> bool:
+    """Whether samples read beside the seam lie over a dark table rather than the sheets.
+
+    ``beside``: linear levels read on the brighter side of a stretch; ``sheet_level``: the
+    sheets' level where the gap is seen. Table when even the brighter samples (90th percentile) are
+    under half the sheets' level: a covered stretch of the joint (a tack weld's dark crater next
+    to its bright bead) or a ragged one has sheet or bead that bright somewhere beside it.
+    """
+    return bool(np.percentile(beside, 90) < 0.5 * sheet_level)
 
 
 def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float,

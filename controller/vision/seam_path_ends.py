@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_ends import end_offset
+from controller.vision.seam_ends import darker_than_sheets, end_offset
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_profiles import bilinear, fit_at, track_on
 
@@ -67,8 +67,8 @@ def over_table(grey: NDArray[np.uint8], lut: F64, centre: F64, stretch: NDArray[
     that is the two sheets. A path carried on past the sheets' end over a dark table has table
     on both sides all along; a covered stretch of the joint (a tack weld: a dark crater, a
     bright bead) or a ragged one has sheet or bead as bright as the sheets somewhere on one
-    side: the stretch is table when even its brighter side's 90th percentile is under half the
-    sheets' level.
+    side: the stretch is table when even the brighter side at each sample is darker than the
+    sheets (:func:`controller.vision.seam_ends.darker_than_sheets`).
     """
     der = np.gradient(centre, axis=0)
     der /= np.linalg.norm(der, axis=1, keepdims=True) + 1e-12
@@ -89,7 +89,7 @@ def over_table(grey: NDArray[np.uint8], lut: F64, centre: F64, stretch: NDArray[
     brighter = brighter[np.isfinite(brighter)]
     if len(sheet) < 3 or len(brighter) < 3:
         return False
-    return bool(np.percentile(brighter, 90) < 0.5 * float(np.median(sheet)))
+    return darker_than_sheets(brighter, float(np.median(sheet)))
 
 
 def follow_ends(grey: NDArray[np.uint8], lut: F64, centre: F64, seen: NDArray[np.bool_],
