@@ -165,6 +165,42 @@ def test_abort_from_another_thread_during_a_weld_arc_off_first(scheme):
         assert h.progress < 39
 
 
+def test_an_abort_takes_the_link_before_a_thread_waiting_on_the_weld(scheme):
+    # The thread waiting on a weld takes and releases the link's lock in 50 ms slices; a released
+    # lock is not handed to the thread that waited longest, so before the urgent lane an abort
+    # waited 0.1-0.8 s (and on a loaded machine past the end of the weld: the arc stayed on).
+    # With it, the waiter starts at most the one slice it was about to start.
+    with open_robot(f"{scheme}://?time_scale=1") as robot:
+        robot.set_tool(TOOL)
+        path = weld_line(40)
+        robot.move_linear(path[0], speed_mm_s=200).wait(5.0)
+        robot.upload_path(path)
+        h = robot.run_weld(speed_mm_s=5.0)  # about 8 s
+        t = threading.Thread(target=lambda: pytest.raises(RobotFault, h.wait, 30.0))
+        link = robot.link
+        pumps: list[int] = []
+        started: list[int] = []
+        pump, write = link.pump, link._write
+
+        def counted_pump(max_s: float) -> int:
+            pumps.append(1)
+            return pump(max_s)
+
+        def noted_write(data: bytes, deadline: float) -> None:
+            if b" AB" in data and not started:
+                started.append(len(pumps))
+            write(data, deadline)
+
+        link.pump, link._write = counted_pump, noted_write
+        t.start()
+        robot.poll_event(2.0)  # the first progress event: the arc is on, the waiter pumping
+        at_abort = len(pumps)
+        robot.abort()
+        t.join(5.0)
+        assert not t.is_alive() and not robot.mock.arc_on
+        assert started and started[0] - at_abort <= 1, (at_abort, started)
+
+
 def test_weld_progress_and_fault_at_point_n(scheme):
     with open_robot(f"{scheme}://?fail_at_point=30") as robot:
         robot.set_tool(TOOL)

@@ -145,7 +145,8 @@ def _wait_for(predicate, timeout_s, what):
 
 def _signal_mid_weld(tmp_path, sig, exit_code):
     """Start a daemon process, start a cycle, send ``sig`` once the weld runs; returns paths."""
-    cfg_path = make_cell(tmp_path / "cell", time_scale=0.05)
+    # a 0.2 mm/s weld lasts minutes at this time scale: the signal lands while the arc is on
+    cfg_path = make_cell(tmp_path / "cell", time_scale=0.05, weld_speed_mm_s=0.2)
     sock = load_cell_config(cfg_path).control.socket
     p = _spawn(cfg_path, tmp_path / f"stderr-{sig}.log")
     try:
@@ -199,7 +200,8 @@ def test_sigterm_mid_weld_aborts_and_exits_cleanly(tmp_path):
 def test_sigterm_while_the_arc_is_on_stops_the_weld_with_the_arc_off(tmp_path):
     # In-process, so that the mock controller can be looked at: the daemon's own signal handlers,
     # a real SIGTERM to this process once the mock has switched the arc on.
-    cfg_path = make_cell(tmp_path / "cell", time_scale=0.05)
+    # a 0.2 mm/s weld lasts minutes at this time scale: the signal lands while the arc is on
+    cfg_path = make_cell(tmp_path / "cell", time_scale=0.05, weld_speed_mm_s=0.2)
     sock = load_cell_config(cfg_path).control.socket
     old = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)}
     d = Daemon(cfg_path)

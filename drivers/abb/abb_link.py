@@ -59,6 +59,12 @@ class AbbLink:
         self.retries = int(retries)
         self._port: Any = None
         self._lock = threading.RLock()
+        # An urgent request (``AB``) is let in before any other taker of the lock: a thread that
+        # waits for a motion takes and releases the lock in a tight loop, and a released RLock is
+        # not handed to the thread that waited longest, so an abort could wait a whole weld.
+        self._urgent = threading.Condition(threading.Lock())
+        self._n_urgent = 0
+        self._held_here = threading.local()
         self._closing = threading.Event()
         self._splitter = codec.LineSplitter()
         self._seq = 0
@@ -79,9 +85,34 @@ class AbbLink:
                             "(and that the controller or mock is running)", url=self.url) from err
         self._splitter.clear()
 
+    @contextlib.contextmanager
+    def hold(self, urgent: bool = False) -> Any:
+        """The link's lock; an ``urgent`` taker goes before every non-urgent one that waits."""
+        depth = getattr(self._held_here, "depth", 0)
+        if urgent:
+            with self._urgent:
+                self._n_urgent += 1
+            try:
+                self._lock.acquire()
+            finally:
+                with self._urgent:
+                    self._n_urgent -= 1
+                    self._urgent.notify_all()
+        else:
+            if depth == 0:  # a thread that holds the lock already must not wait for itself
+                with self._urgent:
+                    self._urgent.wait_for(lambda: self._n_urgent == 0)
+            self._lock.acquire()
+        self._held_here.depth = depth + 1
+        try:
+            yield
+        finally:
+            self._held_here.depth = depth
+            self._lock.release()
+
     def open(self) -> None:
         """Open the port (raises LinkError naming the URL when it cannot be opened)."""
-        with self._lock:
+        with self.hold():
             self._closing.clear()
             if self._port is None:
                 self._open_port()
@@ -89,7 +120,7 @@ class AbbLink:
     def close(self) -> None:
         """Close the port; a reconnect in progress gives up."""
         self._closing.set()
-        with self._lock:
+        with self.hold(urgent=True):
             if self._port is not None:
                 with contextlib.suppress(serial.SerialException, OSError):
                     self._port.close()
@@ -207,14 +238,16 @@ class AbbLink:
         self.stats["stale_replies"] += 1
         return None
 
-    def request(self, body: str, timeout_s: float) -> codec.Reply:
+    def request(self, body: str, timeout_s: float, urgent: bool = False) -> codec.Reply:
         """Send one request and return its reply (``OK`` or ``ER``), retransmitting as needed.
+
+        An ``urgent`` request (the abort) takes the link before any waiting non-urgent one.
 
         Raises :class:`LinkError` when no reply came after ``retries`` re-sends or before
         ``timeout_s``, or when the controller restarted (``ER 13``); :class:`ProtocolError` when
         the request cannot be encoded.
         """
-        with self._lock:
+        with self.hold(urgent):
             seq = self._next_seq()
             line = codec.encode_frame("Q", seq, body)
             self.stats["requests"] += 1
@@ -263,7 +296,7 @@ class AbbLink:
 
     def pump(self, max_s: float) -> int:
         """Read and dispatch incoming events for at most ``max_s`` seconds; returns lines read."""
-        with self._lock:
+        with self.hold():
             deadline = time.monotonic() + max_s
             n = 0
             try:

@@ -93,10 +93,11 @@ class AbbRobot(Robot):
 
     # -- plumbing -------------------------------------------------------------------------------
 
-    def _call(self, body: str, timeout_s: float | None = None) -> tuple[str, ...]:
+    def _call(self, body: str, timeout_s: float | None = None,
+              urgent: bool = False) -> tuple[str, ...]:
         t = self.timeout_s if timeout_s is None else timeout_s
         try:
-            reply = self.link.request(body, t)
+            reply = self.link.request(body, t, urgent)
         except LinkError as err:
             if err.details.get("restarted"):
                 self._recover_after_restart()
@@ -134,7 +135,7 @@ class AbbRobot(Robot):
 
     def _handle(self, mid: int, kind: str, n_points: int = 0) -> MotionHandle:
         h = MotionHandle(mid=mid, kind=kind, n_points=n_points, _waiter=self._wait_motion)
-        with self.link._lock:
+        with self.link.hold():
             # Keep the registry small: only motions that may still report.
             self.link.handles = {m: x for m, x in self.link.handles.items()
                                  if x.state == "running"}
@@ -309,8 +310,8 @@ class AbbRobot(Robot):
 
     def abort(self) -> None:
         """``AB``: the controller turns the arc off first, then stops and clears the motion."""
-        self._call("AB")
-        with self.link._lock:
+        self._call("AB", urgent=True)  # before a motion waiter's next turn on the link
+        with self.link.hold(urgent=True):
             for h in self.link.handles.values():
                 with h._changed:
                     if h.state == "running":
