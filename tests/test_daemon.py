@@ -167,6 +167,8 @@ def _signal_mid_weld(tmp_path, sig, exit_code):
 def test_sigkill_mid_cycle_then_restart(tmp_path):
     cfg_path, sock, rec = _signal_mid_weld(tmp_path, signal.SIGKILL, None)
     assert read_record(rec)["status"] == "incomplete"
+    job = cfg_path.parent / "demo-job.toml"  # the next cycle welds at the demo's own speed
+    job.write_text(job.read_text().replace("[weld]\nspeed_mm_s = 0.2", "[weld]\nspeed_mm_s = 8.0"))
     p2 = _spawn(cfg_path, tmp_path / "stderr2.log")
     try:
         _wait_for(lambda: send_request(sock, {"cmd": "status"})["ok"], 60, "daemon restart")
