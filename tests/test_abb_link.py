@@ -195,6 +195,7 @@ def test_an_abort_takes_the_link_before_a_thread_waiting_on_the_weld(scheme):
         t.start()
         robot.poll_event(2.0)  # the first progress event: the arc is on, the waiter pumping
         at_abort = len(pumps)
+        assert at_abort >= 1 and t.is_alive()  # the abort below meets a waiter on the link
         robot.abort()
         t.join(5.0)
         assert not t.is_alive() and not robot.mock.arc_on
