@@ -1,0 +1,67 @@
+"""The benchmark's scorer (bench/detect_score.py): end kinds at the image border."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from bench.detect_score import score_view
+
+W, H = 2272, 1704
+
+
+def _truth(x0: float, kinds: tuple[str, str], image_size: Any = (W, H)) -> dict[str, Any]:
+    """A straight seam along v = 800 from u = x0 to u = 1500 (px), 4 px gap."""
+    u = np.linspace(x0, 1500.0, 200)
+    t = {"seam_px": np.column_stack([u, np.full_like(u, 800.0)]), "end_kinds": list(kinds),
+         "end_tol_px": 0.0, "pens": [], "gap_px": 4.0, "gap_mm": 0.4, "ragged_mm": 0.0,
+         "family": "plain"}
+    if image_size is not None:
+        t["image_size"] = image_size
+    return t
+
+
+def _seam(x0: float) -> np.ndarray:
+    u = np.linspace(x0, 1500.0, 150)
+    return np.column_stack([u, np.full_like(u, 800.4)])
+
+
+def test_a_joint_end_at_the_image_border_may_be_called_the_image_border() -> None:
+    # The sheets end 4 px inside the image: no view shows that border; "image_border" is the
+    # careful answer and counts as found, counted apart.
+    truth = _truth(4.0, ("joint_end", "joint_end"))
+    r = score_view(_seam(0.0), truth, ["image_border", "joint_end"])
+    assert r["result"] == "found" and r["kind_near_border"] == 1
+    # Said either way it is found; the right kind is not counted as lenient.
+    r = score_view(_seam(4.0), truth, ["joint_end", "joint_end"])
+    assert r["result"] == "found" and r["kind_near_border"] == 0
+
+
+@pytest.mark.parametrize("x0", [40.0, 200.0])
+def test_a_joint_end_well_inside_the_image_must_be_called_a_joint_end(x0: float) -> None:
+    truth = _truth(x0, ("joint_end", "joint_end"))
+    r = score_view(_seam(x0), truth, ["image_border", "joint_end"])
+    assert (r["result"], r["why"]) == ("wrong", "end kind")
+
+
+def test_a_seam_leaving_the_image_called_a_joint_end_stays_wrong() -> None:
+    # The other direction would stop the weld short: never lenient, however near the border.
+    truth = _truth(0.0, ("image_border", "joint_end"))
+    r = score_view(_seam(0.0), truth, ["joint_end", "joint_end"])
+    assert (r["result"], r["why"]) == ("wrong", "end kind")
+
+
+def test_without_the_image_size_the_kinds_must_match() -> None:
+    truth = _truth(4.0, ("joint_end", "joint_end"), image_size=None)
+    r = score_view(_seam(4.0), truth, ["image_border", "joint_end"])
+    assert (r["result"], r["why"]) == ("wrong", "end kind")
+
+
+def test_the_lenient_end_is_matched_in_either_orientation() -> None:
+    truth = _truth(4.0, ("joint_end", "joint_end"))
+    r = score_view(_seam(0.0)[::-1], truth, ["joint_end", "image_border"])
+    assert r["result"] == "found" and r["kind_near_border"] == 1
+    r = score_view(_seam(0.0)[::-1], truth, ["image_border", "joint_end"])
+    assert r["result"] == "wrong"
