@@ -350,7 +350,8 @@ def markdown(rep: dict[str, Any]) -> str:
         for name in ("ours", "published"):
             x = s[name]
             lines.append(f"| {key} | {name} | {x['views']} | {pct(x['found'], x['views'])} "
-                         f"({x.get('found_end_at_border', 0)}) | {x['refused']} | {x['wrong']} ({x['wrong_pen']}) | {x['crash']} |")
+                         f"({x.get('found_end_at_border', 0)}) | {x['refused']} | "
+                         f"{x['wrong']} ({x['wrong_pen']}) | {x['crash']} |")
     lines += ["", "| pairs: set / difficulty / part | pairs | located | partial | wrong | "
               "refused | located, both ends seen in both views | 3D RMS median (located) |",
               "|---|---|---|---|---|---|---|---|"]
