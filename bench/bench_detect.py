@@ -53,6 +53,7 @@ from bench.detect_cases import (
     QUICK,
     case_cached,
     load_case,
+    make_case_scene,
     plan,
     render_case,
     render_order,
@@ -97,7 +98,8 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
     """Detect in every view of a case (both detectors) and locate the pair (ours)."""
     cam = cam or default_camera()
     imgs, z = load_case(case)
-    row: dict[str, Any] = {"case": list(case), "family": str(z["family"]), "views": []}
+    row: dict[str, Any] = {"case": list(case), "family": str(z["family"]), "views": [],
+                           "scene": scene_features(case)}
     curves: list[np.ndarray] = []
     widths: list[float | None] = []
     kinds: list[tuple[str, str] | None] = []
@@ -125,6 +127,26 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
         row["pair"]["ends_seen"] = all(k == "joint_end" for v in row["views"]
                                        for k in v["end_kinds"])
     return row
+
+
+def scene_features(case: tuple[str, str, str, int]) -> dict[str, Any]:
+    """What a case's scene has that the wrong seams are counted by (the look's parameters).
+
+    ``table``: the table kind; ``step_shadow``: a higher plate edge casts a shadow band beside
+    the gap; ``shadow_vs_floor``: that shadow's reflectance (the shadowed sheet's albedo times
+    the shadow's darkening) over the gap floor's (1 or less: the shadow is no brighter than the
+    floor, so no profile across the band can tell the gap from it).
+    """
+    scene = make_case_scene(case)
+    look = scene.look
+    if look is None:
+        return {"table": "classic", "step_shadow": False}
+    out: dict[str, Any] = {"table": look.table, "step_shadow": look.step_shadow_mm > 0}
+    if out["step_shadow"]:
+        albedo = scene.albedo_a if look.step_side < 0 else scene.albedo_b
+        out["shadow_vs_floor"] = round(albedo * (1.0 - look.step_depth)
+                                       / max(scene.gap_floor, 1e-6), 2)
+    return out
 
 
 def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | None],
@@ -214,6 +236,32 @@ def by_look(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
                               {"views": 0, "found": 0, "refused": 0, "wrong": 0, "crash": 0})
         cell["views"] += 1
         cell[o["result"]] += 1
+    return dict(sorted(out.items()))
+
+
+def wrong_by_scene(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
+    """Our single views of the wide and pen sets per part and scene feature: views and wrong.
+
+    Features (:func:`scene_features`): each table kind, and a step shadow beside the gap
+    (split into one at least as dark as the gap floor and one lighter): where the wrong seams
+    come from, whatever the difficulty.
+    """
+    out: dict[str, dict[str, int]] = {}
+    for key, rs in rows.items():
+        if key.startswith("classic"):
+            continue
+        part = key.rsplit("/", 1)[-1]
+        for r in rs:
+            sc = r.get("scene", {})
+            shadow = "none"
+            if sc.get("step_shadow"):
+                shadow = "as dark as the floor" if sc["shadow_vs_floor"] <= 1.0 else "lighter"
+            for feat in (f"table {sc.get('table', '?')}", f"step shadow: {shadow}"):
+                cell = out.setdefault(f"{feat}/{part}", {"views": 0, "found": 0, "wrong": 0})
+                for v in r["views"]:
+                    cell["views"] += 1
+                    if v["ours"]["result"] in ("found", "wrong"):
+                        cell[v["ours"]["result"]] += 1
     return dict(sorted(out.items()))
 
 
@@ -322,6 +370,7 @@ def main(argv: list[str] | None = None) -> int:
                         for split in splits},
         "by_look": by_look(rows),
         "by_way": by_way(rows),
+        "wrong_by_scene": wrong_by_scene(rows),
         "rows": rows}
     timing_imgs = [load_case(g[0])[0][0] for g in groups.values() if g][:6]
     if args.timing_runs > 0:  # 0: accuracy only
@@ -383,6 +432,12 @@ def markdown(rep: dict[str, Any]) -> str:
                   "| way / part | returned | found | wrong |", "|---|---|---|---|"]
         for key, c in rep["by_way"].items():
             lines.append(f"| {key} | {c['returned']} | {pct(c['found'], c['returned'])} | "
+                         f"{c['wrong']} |")
+    if rep.get("wrong_by_scene"):
+        lines += ["", "Ours by what the scene had (single views of the wide and pen sets):", "",
+                  "| scene feature / part | views | found | wrong |", "|---|---|---|---|"]
+        for key, c in rep["wrong_by_scene"].items():
+            lines.append(f"| {key} | {c['views']} | {pct(c['found'], c['views'])} | "
                          f"{c['wrong']} |")
     t = rep.get("timing")
     if t is None:

@@ -65,3 +65,22 @@ def test_the_lenient_end_is_matched_in_either_orientation() -> None:
     assert r["result"] == "found" and r["kind_near_border"] == 1
     r = score_view(_seam(0.0)[::-1], truth, ["image_border", "joint_end"])
     assert r["result"] == "wrong"
+
+
+def test_wrong_seams_are_counted_by_what_the_scene_had() -> None:
+    from bench.bench_detect import scene_features, wrong_by_scene
+
+    # Tuning view 10005 easy: a step shadow darker than the gap floor (its returned seam lies
+    # on the middle of gap + shadow); 10063 easy: a lighter shadow.
+    dark = scene_features(("wide", "easy", "tuning", 10005))
+    light = scene_features(("wide", "easy", "tuning", 10063))
+    assert dark["step_shadow"] and dark["shadow_vs_floor"] <= 1.0
+    assert light["step_shadow"] and light["shadow_vs_floor"] > 1.0
+    view = {"ours": {"result": "wrong"}}
+    rows = {"wide/easy/tuning": [{"scene": dark, "views": [view, {"ours": {"result": "found"}}]},
+                                 {"scene": light, "views": [{"ours": {"result": "refused"}}]}],
+            "classic/easy/tuning": [{"scene": dark, "views": [view]}]}
+    out = wrong_by_scene(rows)
+    assert out["step shadow: as dark as the floor/tuning"] == {"views": 2, "found": 1, "wrong": 1}
+    assert out["step shadow: lighter/tuning"] == {"views": 1, "found": 0, "wrong": 0}
+    assert out[f"table {dark['table']}/tuning"]["wrong"] >= 1
