@@ -84,3 +84,24 @@ def test_wrong_seams_are_counted_by_what_the_scene_had() -> None:
     assert out["step shadow: as dark as the floor/tuning"] == {"views": 2, "found": 1, "wrong": 1}
     assert out["step shadow: lighter/tuning"] == {"views": 1, "found": 0, "wrong": 0}
     assert out[f"table {dark['table']}/tuning"]["wrong"] >= 1
+
+
+def test_the_gallery_draws_the_truth_under_the_detection_and_picks_by_part() -> None:
+    from bench.detect_gallery import TRUTH_BGR, chosen, picture
+
+    img = np.full((200, 400), 128, np.uint8)
+    truth = {"seam_px": np.array([[20.0, 100.0], [380.0, 100.0]]), "pens": []}
+    out = picture(img, truth, None, "refused: no seam", max_width=400)
+    assert out.shape == (200, 400, 3)
+    # The true centreline is drawn (dimmed with the image, as the overlay dims it).
+    b, g, r = (int(v) for v in out[100, 200])
+    assert b > r + 80 and b > g and b > 0.6 * TRUTH_BGR[0]
+    rows = {"wide/easy/tuning": [{"case": ["wide", "easy", "tuning", 1],
+                                  "views": [{"ours": {"result": "wrong"}},
+                                            {"ours": {"result": "found"}}]}],
+            "wide/easy/heldout": [{"case": ["wide", "easy", "heldout", 2],
+                                   "views": [{"ours": {"result": "wrong"}}]}],
+            "classic/easy/tuning": [{"case": ["classic", "easy", "tuning", 0],
+                                     "views": [{"ours": {"result": "wrong"}}]}]}
+    assert [(c[3], i) for c, i, _ in chosen({"rows": rows}, "wrong", "tuning")] == [(1, 0)]
+    assert [(c[3], i) for c, i, _ in chosen({"rows": rows}, "wrong", "heldout")] == [(2, 0)]
