@@ -240,7 +240,7 @@ def by_look(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
 
 
 def wrong_by_scene(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
-    """Our single views of the wide and pen sets per part and scene feature: views and wrong.
+    """Our single views of the wide and pen sets per part and scene feature: views, found, wrong.
 
     Features (:func:`scene_features`): each table kind, and a step shadow beside the gap
     (split into one at least as dark as the gap floor and one lighter): where the wrong seams
