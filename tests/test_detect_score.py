@@ -1,4 +1,4 @@
-"""The benchmark's scorer (bench/detect_score.py): end kinds at the image border."""
+"""The benchmark's scorer and reports: end kinds at the image border, scenes, gallery."""
 
 from __future__ import annotations
 
