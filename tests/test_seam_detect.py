@@ -329,3 +329,17 @@ def test_a_line_running_beside_the_seam_makes_it_ambiguous(offset_px, score, amb
             choose(cands, DetectParams(), {}, (0, 0))
     else:
         assert choose(cands, DetectParams(), {}, (0, 0))[0] is cands[0]
+
+
+def test_overlay_text_is_wrapped_not_cut() -> None:
+    from controller.vision.seam_overlay import MAX_TEXT_LINES, text_lines
+
+    parts = [f"candidate {k}: dark line of {300 + k} px fades out inside a sheet" for k in range(4)]
+    reason = "no weld seam found in the image (" + "; ".join(parts) + ")"
+    lines = text_lines(["seam found, confidence 0.90", reason], 50)
+    assert lines[0] == "seam found, confidence 0.90"
+    assert all(len(t) <= 50 for t in lines)
+    # Every word of the reason is on the picture, in order.
+    assert " ".join(lines[1:]).split() == reason.split()
+    many = text_lines([reason] * 10, 50)
+    assert len(many) == MAX_TEXT_LINES and many[-1].endswith(" ...")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from typing import Any
 
 import cv2
@@ -16,6 +17,21 @@ _SHIFT = 4  # cv2 drawing with sub-pixel coordinates: 4 fractional bits
 def _fixed(pts: NDArray[Any]) -> NDArray[np.int32]:
     # Pixel centres at integer coordinates, as cv2 drawing expects.
     return np.round(np.asarray(pts, dtype=np.float64) * (1 << _SHIFT)).astype(np.int32)
+
+
+MAX_TEXT_LINES = 14
+
+
+def text_lines(texts: list[str], width: int) -> list[str]:
+    """``texts`` wrapped to ``width`` characters a line, at most :data:`MAX_TEXT_LINES` lines.
+
+    A refusal's reasons run to several hundred characters; cut at one line, the picture would
+    lose the reason a person opened it for. Past the last line, "..." says there is more.
+    """
+    out = [w for t in texts for w in (textwrap.wrap(t, max(width, 20)) or [""])]
+    if len(out) > MAX_TEXT_LINES:
+        out = out[:MAX_TEXT_LINES - 1] + [out[MAX_TEXT_LINES - 1][: max(width, 20) - 4] + " ..."]
+    return out
 
 
 def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = None,
@@ -47,11 +63,12 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
     if message:
         lines.append(message)
     y = 40 * scale_line
-    for text in lines:
-        colour = (40, 230, 40) if detection is not None else (60, 60, 255)
-        cv2.putText(out, text[:110], (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
+    colour = (40, 230, 40) if detection is not None else (60, 60, 255)
+    # Hershey simplex at 0.7 x scale_line: about 12 x scale_line px a character.
+    for text in text_lines(lines, (W - 40 * scale_line) // (12 * scale_line)):
+        cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
                     0.7 * scale_line, (0, 0, 0), 4 * scale_line, cv2.LINE_AA)
-        cv2.putText(out, text[:110], (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
+        cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
                     0.7 * scale_line, colour, scale_line, cv2.LINE_AA)
         y += 32 * scale_line
     if max_width < W:
