@@ -15,7 +15,7 @@ report keeps no points): the detector of the working tree, not necessarily the r
 
 The default part is ``tuning``: the held-out part is there to measure, and looking through its
 failures one by one is how a rule gets fitted to it. ``--part heldout`` draws it all the same,
-and says so on every page.
+and says so in the index and on every picture.
 """
 
 from __future__ import annotations
@@ -93,6 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     cam = default_camera()
     warn = (" (held-out part: to measure with, not to tune on)" if args.part == "heldout" else "")
+    written = 0
     index = [f"# Our {args.result} views, {args.part} part{warn}", "",
              "Blue: the true centreline; magenta: pen lines; green: our seam.", ""]
     for n, (case, i, scored) in enumerate(views, 1):
@@ -102,7 +103,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"detect_gallery: {case} is not in the render cache; skipped", file=sys.stderr)
             continue
         det: SeamDetection | None = None
-        message = f"benchmark: {scored['result']}"
+        message = ("held-out part, to measure with, not to tune on; " if args.part == "heldout"
+                   else "") + f"benchmark: {scored['result']}"
         if "why" in scored:
             message += f", {scored['why']} ({scored['rms']:.1f} px RMS off the truth)"
         try:
@@ -111,13 +113,14 @@ def main(argv: list[str] | None = None) -> int:
             message += f"; refused: {err}"
         name = f"{case[0]}-{case[1]}-{case[2]}-{case[3]:05d}-v{i}.png"
         cv2.imwrite(str(out / name), picture(imgs[i], view_truth(z, i), det, message))
+        written += 1
         verdict = scored.get("why") or scored.get("error", "")[:160]
         index.append(f"- [{name}]({name}): {scored['result']}, {verdict}"
                      + (f", confidence {scored['confidence']:.2f}" if "confidence" in scored
                         else ""))
         print(f"{n}/{len(views)} {name}", file=sys.stderr)
     (out / "index.md").write_text("\n".join(index) + "\n")
-    print(f"{len(views)} pictures and index.md in {out}")
+    print(f"{written} pictures and index.md in {out}")
     return 0
 
 
