@@ -384,10 +384,23 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _pct(a: int, n: int) -> str:
+    return f"{a}/{n} ({100 * a / n:.0f} %)" if n else "-"
+
+
+def _count_table(title: str, first: str, cells: dict[str, dict[str, int]], total: str,
+                 rest: tuple[str, ...]) -> list[str]:
+    """Markdown lines of a table of counts per key: key, ``total``, found (share), ``rest``."""
+    out = ["", title, "", f"| {first} / part | {total} | found | " + " | ".join(rest) + " |",
+           "|---|" + "---|" * (2 + len(rest))]
+    for key, c in cells.items():
+        out.append(f"| {key} | {c[total]} | {_pct(c['found'], c[total])} | "
+                   + " | ".join(str(c[k]) for k in rest) + " |")
+    return out
+
+
 def markdown(rep: dict[str, Any]) -> str:
     """The README tables of a report."""
-    def pct(a: int, n: int) -> str:
-        return f"{a}/{n} ({100 * a / n:.0f} %)" if n else "-"
 
     lines = [f"Detector: commit {rep['detector_commit']} (tree {rep['commit']}). Render "
              f"{rep['render_s']:.0f} s (cached renders are not redone), detection and scoring "
@@ -398,7 +411,7 @@ def markdown(rep: dict[str, Any]) -> str:
     for key, s in rep["summary"].items():
         for name in ("ours", "published"):
             x = s[name]
-            lines.append(f"| {key} | {name} | {x['views']} | {pct(x['found'], x['views'])} "
+            lines.append(f"| {key} | {name} | {x['views']} | {_pct(x['found'], x['views'])} "
                          f"({x.get('found_end_at_border', 0)}) | {x['refused']} | "
                          f"{x['wrong']} ({x['wrong_pen']}) | {x['crash']} |")
     lines += ["", "| pairs: set / difficulty / part | pairs | located | partial | wrong | "
@@ -408,9 +421,9 @@ def markdown(rep: dict[str, Any]) -> str:
         x = s["ours"]
         if "pairs" in x:
             rms = "-" if x["pairs_rms_mm_median"] is None else f"{x['pairs_rms_mm_median']:.3f} mm"
-            lines.append(f"| {key} | {x['pairs']} | {pct(x['pairs_located'], x['pairs'])} | "
+            lines.append(f"| {key} | {x['pairs']} | {_pct(x['pairs_located'], x['pairs'])} | "
                          f"{x['pairs_partial']} | {x['pairs_wrong']} | {x['pairs_refused']} | "
-                         f"{pct(x['pairs_ends_seen_located'], x['pairs_ends_seen'])} | {rms} |")
+                         f"{_pct(x['pairs_ends_seen_located'], x['pairs_ends_seen'])} | {rms} |")
     lines += ["", "Reliability (ours, single views of the wide and pen sets): share of returned "
               "seams found per confidence bin.", "",
               "| confidence | " + " | ".join(rep["reliability"]) + " |",
@@ -421,24 +434,14 @@ def markdown(rep: dict[str, Any]) -> str:
             b = rep["reliability"][split][i]
             cells.append(f"{b['found']}/{b['n']} found, {b['wrong']} wrong" if b["n"] else "-")
         lines.append(f"| {lo_hi:.2f}-{min(BINS[i + 1], 1.0):.2f} | " + " | ".join(cells) + " |")
-    if rep.get("by_look"):
-        lines += ["", "Ours per look (single views of the wide and pen sets):", "",
-                  "| look / part | views | found | refused | wrong |", "|---|---|---|---|---|"]
-        for key, c in rep["by_look"].items():
-            lines.append(f"| {key} | {c['views']} | {pct(c['found'], c['views'])} | "
-                         f"{c['refused']} | {c['wrong']} |")
-    if rep.get("by_way"):
-        lines += ["", "Ours per way (returned single views of the wide and pen sets):", "",
-                  "| way / part | returned | found | wrong |", "|---|---|---|---|"]
-        for key, c in rep["by_way"].items():
-            lines.append(f"| {key} | {c['returned']} | {pct(c['found'], c['returned'])} | "
-                         f"{c['wrong']} |")
-    if rep.get("wrong_by_scene"):
-        lines += ["", "Ours by what the scene had (single views of the wide and pen sets):", "",
-                  "| scene feature / part | views | found | wrong |", "|---|---|---|---|"]
-        for key, c in rep["wrong_by_scene"].items():
-            lines.append(f"| {key} | {c['views']} | {pct(c['found'], c['views'])} | "
-                         f"{c['wrong']} |")
+    for key, title, first, total, rest in (
+            ("by_look", "per look (single views", "look", "views", ("refused", "wrong")),
+            ("by_way", "per way (returned single views", "way", "returned", ("wrong",)),
+            ("wrong_by_scene", "by what the scene had (single views", "scene feature", "views",
+             ("wrong",))):
+        if rep.get(key):
+            lines += _count_table(f"Ours {title} of the wide and pen sets):", first, rep[key],
+                                  total, rest)
     t = rep.get("timing")
     if t is None:
         return "\n".join(lines) + "\n"
