@@ -98,13 +98,14 @@ def score_view(points: np.ndarray, truth: dict[str, Any],
                end=float(end_err.max()))
     on_seam = out["p95"] <= tol and out["max"] <= 2 * tol + 2
     kinds_true = list(truth["end_kinds"])[::-1] if reverse else list(truth["end_kinds"])
+    tol_border = max(10.0, 2 * tol)  # an image-border end's tolerance (module doc)
     near = _near_image_border(tends[::-1] if reverse else tends, truth.get("image_size"),
-                              max(10.0, 2 * tol))
+                              tol_border)
     said = list(kinds) if kinds is not None and len(kinds) == 2 else None
     # A joint end at the image border reported as the image border: judged as one (module doc).
     lenient = [said is not None and t == "joint_end" and said[i] == "image_border" and near[i]
                for i, t in enumerate(kinds_true)]
-    tol_ends = np.array([max(10.0, 2 * tol) if k == "image_border" or lenient[i] else end_tol
+    tol_ends = np.array([tol_border if k == "image_border" or lenient[i] else end_tol
                          for i, k in enumerate(kinds_true)])
     ok_ends = bool(np.all(end_err <= tol_ends)) and out["coverage"] >= 0.9
     kinds_ok = True
