@@ -135,13 +135,15 @@ def scene_features(case: tuple[str, str, str, int]) -> dict[str, Any]:
     ``table``: the table kind; ``step_shadow``: a higher plate edge casts a shadow band beside
     the gap; ``shadow_vs_floor``: that shadow's reflectance (the shadowed sheet's albedo times
     the shadow's darkening) over the gap floor's (1 or less: the shadow is no brighter than the
-    floor, so no profile across the band can tell the gap from it).
+    floor, so no profile across the band can tell the gap from it). ``corner_mm``: the radius of
+    the plates' rounded corners at the joint's ends (0: square corners).
     """
     scene = make_case_scene(case)
     look = scene.look
     if look is None:
-        return {"table": "classic", "step_shadow": False}
-    out: dict[str, Any] = {"table": look.table, "step_shadow": look.step_shadow_mm > 0}
+        return {"table": "classic", "step_shadow": False, "corner_mm": 0.0}
+    out: dict[str, Any] = {"table": look.table, "step_shadow": look.step_shadow_mm > 0,
+                           "corner_mm": round(float(look.corner_mm), 2)}
     if out["step_shadow"]:
         albedo = scene.albedo_a if look.step_side < 0 else scene.albedo_b
         out["shadow_vs_floor"] = round(albedo * (1.0 - look.step_depth)
@@ -242,9 +244,10 @@ def by_look(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
 def wrong_by_scene(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
     """Our single views of the wide and pen sets per part and scene feature: views, found, wrong.
 
-    Features (:func:`scene_features`): each table kind, and a step shadow beside the gap
-    (split into one at least as dark as the gap floor and one lighter): where the wrong seams
-    come from, whatever the difficulty.
+    Features (:func:`scene_features`): each table kind, a step shadow beside the gap (split
+    into one at least as dark as the gap floor and one lighter), and per view whether a joint
+    end is in view and the plates' corners there are rounded or square: where the wrong seams
+    and the refusals come from, whatever the difficulty.
     """
     out: dict[str, dict[str, int]] = {}
     for key, rs in rows.items():
@@ -256,9 +259,14 @@ def wrong_by_scene(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str,
             shadow = "none"
             if sc.get("step_shadow"):
                 shadow = "as dark as the floor" if sc["shadow_vs_floor"] <= 1.0 else "lighter"
-            for feat in (f"table {sc.get('table', '?')}", f"step shadow: {shadow}"):
-                cell = out.setdefault(f"{feat}/{part}", {"views": 0, "found": 0, "wrong": 0})
-                for v in r["views"]:
+            for v in r["views"]:
+                corner = "no joint end in view"
+                if "joint_end" in v.get("end_kinds", ()) and "corner_mm" in sc:
+                    corner = ("a joint end in view, rounded" if sc["corner_mm"] > 0
+                              else "a joint end in view, square")
+                for feat in (f"table {sc.get('table', '?')}", f"step shadow: {shadow}",
+                             f"plate corners: {corner}"):
+                    cell = out.setdefault(f"{feat}/{part}", {"views": 0, "found": 0, "wrong": 0})
                     cell["views"] += 1
                     if v["ours"]["result"] in ("found", "wrong"):
                         cell[v["ours"]["result"]] += 1

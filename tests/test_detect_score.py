@@ -84,6 +84,19 @@ def test_wrong_seams_are_counted_by_what_the_scene_had() -> None:
     assert out["step shadow: as dark as the floor/tuning"] == {"views": 2, "found": 1, "wrong": 1}
     assert out["step shadow: lighter/tuning"] == {"views": 1, "found": 0, "wrong": 0}
     assert out[f"table {dark['table']}/tuning"]["wrong"] >= 1
+    # Per view: whether a joint end is in view, and the plates' corners there.
+    rounded = {**dark, "corner_mm": 12.0}
+    ends = {"end_kinds": ["joint_end", "image_border"]}
+    rows = {"wide/easy/heldout": [
+        {"scene": rounded, "views": [{**ends, "ours": {"result": "refused"}},
+                                     {"end_kinds": ["image_border"] * 2,
+                                      "ours": {"result": "found"}}]},
+        {"scene": {**dark, "corner_mm": 0.0}, "views": [{**ends, "ours": {"result": "found"}}]}]}
+    out = wrong_by_scene(rows)
+    assert out["plate corners: a joint end in view, rounded/heldout"] == {
+        "views": 1, "found": 0, "wrong": 0}
+    assert out["plate corners: a joint end in view, square/heldout"]["found"] == 1
+    assert out["plate corners: no joint end in view/heldout"]["found"] == 1
 
 
 def test_the_gallery_draws_the_truth_under_the_detection_and_picks_by_part() -> None:
