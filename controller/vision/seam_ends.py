@@ -4,10 +4,8 @@
 sheet border crosses them (a straight border: its crossings lie on one line); :func:`measure_tails`
 measures the last stretch before an end again with short profiles, which a border does not reach.
 An end point that ran on past the sheets (over the table, or past two rounded corners) is read
-again from before it (:func:`_read_back`, :func:`_backed_off`); where the gap opens out between
-two rounded plate corners, the end is also read from its width on profiles across
-(:func:`controller.vision.seam_corner.widening_end`); whether the gap goes on beyond a patch on
-the joint is :func:`controller.vision.seam_resume.gap_resumes`.
+again from before it (:func:`_read_back`, :func:`_backed_off`); whether the gap goes on beyond
+a patch on the joint is :func:`controller.vision.seam_resume.gap_resumes`.
 """
 
 from __future__ import annotations
@@ -18,7 +16,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.vision.seam_border import Border, border_line, side_crossings, side_steps
-from controller.vision.seam_corner import widening_end
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_profiles import bilinear, fit_at
 from controller.vision.seam_resume import RESUME_RUN_PX, gap_resumes
@@ -98,27 +95,11 @@ def end_offset(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
     the table and the line followed runs on into it), the end is read again further back
     (:func:`_backed_off`). A line that fades out inside a sheet has the sheet around its end,
     not the table: it stays open.
-
-    The gap's width across it is read too (:func:`widening_end`): where it opens out between two
-    rounded corners, it doubles where the sheets stop facing each other. Where the lines beside
-    the gap found no end (``"open"``: a large radius crosses them at too shallow an angle to
-    step), that is the end; where they found a sheet border more than ``max(3, w_med / 2)`` px
-    from it, the end is ``"unsure sheet border"`` (two readings of one end that disagree: the
-    candidate is refused as too weak rather than returned with an end a few px off).
     """
     res = _read_back(grey, lut, e_pt, tang, w_med, chord)
-    if res[1] == "open":
-        res = _backed_off(grey, lut, e_pt, tang, w_med, chord) or res
-    if res[1] not in ("open", "sheet border"):
+    if res[1] != "open":
         return res
-    k = widening_end(grey, lut, e_pt, tang, w_med)
-    if k is None:
-        return res
-    if res[1] == "open":
-        return k, "sheet border", None
-    if res[0] - k > max(3.0, w_med / 2):
-        return res[0], "unsure sheet border", res[2]
-    return res
+    return _backed_off(grey, lut, e_pt, tang, w_med, chord) or res
 
 
 _BACK_STEP_PX = 16.0  # steps back along the seam to read an end from
