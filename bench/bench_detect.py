@@ -255,22 +255,31 @@ def wrong_by_scene(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str,
             continue
         part = key.rsplit("/", 1)[-1]
         for r in rs:
-            sc = r.get("scene", {})
-            shadow = "none"
-            if sc.get("step_shadow"):
-                shadow = "as dark as the floor" if sc["shadow_vs_floor"] <= 1.0 else "lighter"
             for v in r["views"]:
-                corner = "no joint end in view"
-                if "joint_end" in v.get("end_kinds", ()) and "corner_mm" in sc:
-                    corner = ("a joint end in view, rounded" if sc["corner_mm"] > 0
-                              else "a joint end in view, square")
-                for feat in (f"table {sc.get('table', '?')}", f"step shadow: {shadow}",
-                             f"plate corners: {corner}"):
+                for feat in view_features(r.get("scene", {}), v):
                     cell = out.setdefault(f"{feat}/{part}", {"views": 0, "found": 0, "wrong": 0})
                     cell["views"] += 1
                     if v["ours"]["result"] in ("found", "wrong"):
                         cell[v["ours"]["result"]] += 1
     return dict(sorted(out.items()))
+
+
+def view_features(scene: dict[str, Any], view: dict[str, Any]) -> list[str]:
+    """The names a view is counted under in :func:`wrong_by_scene` (and picked by in the gallery).
+
+    ``scene``: a row's :func:`scene_features`; ``view``: the report's view (its true
+    ``end_kinds``). ``table KIND``, ``step shadow: none|as dark as the floor|lighter``, and
+    ``plate corners: no joint end in view|a joint end in view, rounded|..., square``.
+    """
+    shadow = "none"
+    if scene.get("step_shadow"):
+        shadow = "as dark as the floor" if scene["shadow_vs_floor"] <= 1.0 else "lighter"
+    corner = "no joint end in view"
+    if "joint_end" in view.get("end_kinds", ()) and "corner_mm" in scene:
+        corner = ("a joint end in view, rounded" if scene["corner_mm"] > 0
+                  else "a joint end in view, square")
+    return [f"table {scene.get('table', '?')}", f"step shadow: {shadow}",
+            f"plate corners: {corner}"]
 
 
 def by_way(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:

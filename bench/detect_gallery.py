@@ -3,8 +3,8 @@
 Usage (from the repository root, after ``bench.bench_detect`` wrote its report)::
 
     .venv/bin/python -m bench.detect_gallery [--report bench/out/detect.json]
-        [--result wrong|refused|found] [--part tuning|heldout] [--limit 40]
-        [--out bench/out/gallery]
+        [--result wrong|refused|found] [--part tuning|heldout] [--feature NAME]
+        [--limit 40] [--out bench/out/gallery]
 
 For each view of the wide and pen sets with that result (ours), from the render cache: the
 image dimmed with our detection drawn as ``seamguide detect --overlay`` draws it (green seam,
@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from bench.bench_detect import view_features
 from bench.detect_cases import load_case, view_truth
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
@@ -62,15 +63,22 @@ def picture(image: NDArray[np.uint8], truth: dict[str, Any], detection: SeamDete
     return out
 
 
-def chosen(report: dict[str, Any], result: str, part: str) -> list[tuple[list[Any], int, dict]]:
-    """(case, view, our scored result) of the report's wide and pen views with ``result``."""
+def chosen(report: dict[str, Any], result: str, part: str, feature: str | None = None
+           ) -> list[tuple[list[Any], int, dict]]:
+    """(case, view, our scored result) of the report's wide and pen views with ``result``.
+
+    ``feature``: only views counted under that name in the benchmark's table *by what the
+    scene had* (:func:`bench.bench_detect.view_features`, e.g. ``"table dark"``).
+    """
     out = []
     for key, rows in report["rows"].items():
         if key.startswith("classic") or not key.endswith("/" + part):
             continue
         for r in rows:
             for i, v in enumerate(r["views"]):
-                if v["ours"]["result"] == result:
+                if v["ours"]["result"] != result:
+                    continue
+                if feature is None or feature in view_features(r.get("scene", {}), v):
                     out.append((r["case"], i, v["ours"]))
     return out
 
@@ -80,6 +88,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--report", default="bench/out/detect.json")
     ap.add_argument("--result", choices=("wrong", "refused", "found"), default="wrong")
     ap.add_argument("--part", choices=("tuning", "heldout"), default="tuning")
+    ap.add_argument("--feature", default=None,
+                    help='only views with this scene feature, as named in the benchmark\'s '
+                         'table "by what the scene had", e.g. "table dark" or "plate corners: '
+                         'a joint end in view, rounded"')
     ap.add_argument("--limit", type=int, default=40)
     ap.add_argument("--out", default="bench/out/gallery")
     args = ap.parse_args(argv)
@@ -88,13 +100,21 @@ def main(argv: list[str] | None = None) -> int:
         print(f"detect_gallery: no report at {path}; run `.venv/bin/python -m bench.bench_detect` "
               "first (or give --report)", file=sys.stderr)
         return 2
-    views = chosen(json.loads(path.read_text()), args.result, args.part)[: args.limit]
+    views = chosen(json.loads(path.read_text()), args.result, args.part,
+                   args.feature)[: args.limit]
+    if not views:
+        print(f"detect_gallery: no {args.result} view of the {args.part} part"
+              + (f" with the feature {args.feature!r}" if args.feature else "")
+              + f" in {path}; the feature names are those of the report's table by what the "
+              "scene had (bench/out/detect.md)", file=sys.stderr)
+        return 1
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     cam = default_camera()
     warn = (" (held-out part: to measure with, not to tune on)" if args.part == "heldout" else "")
     written = 0
-    index = [f"# Our {args.result} views, {args.part} part{warn}", "",
+    which = f" with {args.feature}" if args.feature else ""
+    index = [f"# Our {args.result} views{which}, {args.part} part{warn}", "",
              "Blue: the true centreline; magenta: pen lines; green: our seam.", ""]
     for n, (case, i, scored) in enumerate(views, 1):
         try:

@@ -118,3 +118,13 @@ def test_the_gallery_draws_the_truth_under_the_detection_and_picks_by_part() -> 
                                      "views": [{"ours": {"result": "wrong"}}]}]}
     assert [(c[3], i) for c, i, _ in chosen({"rows": rows}, "wrong", "tuning")] == [(1, 0)]
     assert [(c[3], i) for c, i, _ in chosen({"rows": rows}, "wrong", "heldout")] == [(2, 0)]
+    # By a scene feature, named as in the benchmark's table by what the scene had.
+    rounded = {"table": "dark", "step_shadow": False, "corner_mm": 10.0}
+    rows = {"wide/easy/tuning": [
+        {"case": ["wide", "easy", "tuning", 3], "scene": rounded,
+         "views": [{"end_kinds": ["joint_end", "image_border"], "ours": {"result": "wrong"}},
+                   {"end_kinds": ["image_border"] * 2, "ours": {"result": "wrong"}}]}]}
+    corner = "plate corners: a joint end in view, rounded"
+    assert [(c[3], i) for c, i, _ in chosen({"rows": rows}, "wrong", "tuning", corner)] == [(3, 0)]
+    assert len(chosen({"rows": rows}, "wrong", "tuning", "table dark")) == 2
+    assert chosen({"rows": rows}, "wrong", "tuning", "table plain") == []
