@@ -123,8 +123,7 @@ def rate_confidence(c: Candidate, ratio: float) -> tuple[float, list[str]]:
         # Where the seam meets the border is not clear: an end point off by more than a few px
         # would put the weld's start or stop in the wrong place.
         conf = min(conf * 0.6, 0.45)
-        reasons.append("the end point is unsure at one end (two sheet borders seen equally "
-                       "well, or the border and where the gap opens out read apart)")
+        reasons.append("two sheet borders seen equally well at one end: the end point is unsure")
     if ratio > 0:
         reasons.append(f"next candidate {100 * ratio:.0f} % as strong")
     else:
