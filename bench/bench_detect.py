@@ -269,17 +269,20 @@ def view_features(scene: dict[str, Any], view: dict[str, Any]) -> list[str]:
 
     ``scene``: a row's :func:`scene_features`; ``view``: the report's view (its true
     ``end_kinds``). ``table KIND``, ``step shadow: none|as dark as the floor|lighter``, and
-    ``plate corners: no joint end in view|a joint end in view, rounded|..., square``.
+    ``plate corners: no joint end in view|a joint end in view, rounded|..., square`` (not for
+    a report written before ``corner_mm`` was recorded).
     """
     shadow = "none"
     if scene.get("step_shadow"):
         shadow = "as dark as the floor" if scene["shadow_vs_floor"] <= 1.0 else "lighter"
-    corner = "no joint end in view"
-    if "joint_end" in view.get("end_kinds", ()) and "corner_mm" in scene:
-        corner = ("a joint end in view, rounded" if scene["corner_mm"] > 0
-                  else "a joint end in view, square")
-    return [f"table {scene.get('table', '?')}", f"step shadow: {shadow}",
-            f"plate corners: {corner}"]
+    out = [f"table {scene.get('table', '?')}", f"step shadow: {shadow}"]
+    if "corner_mm" in scene:
+        corner = "no joint end in view"
+        if "joint_end" in view.get("end_kinds", ()):
+            corner = ("a joint end in view, rounded" if scene["corner_mm"] > 0
+                      else "a joint end in view, square")
+        out.append(f"plate corners: {corner}")
+    return out
 
 
 def by_way(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:

@@ -97,6 +97,10 @@ def test_wrong_seams_are_counted_by_what_the_scene_had() -> None:
         "views": 1, "found": 0, "wrong": 0}
     assert out["plate corners: a joint end in view, square/heldout"]["found"] == 1
     assert out["plate corners: no joint end in view/heldout"]["found"] == 1
+    # A report from before corner_mm was recorded: no corner rows, rather than wrong ones.
+    old = {"wide/easy/tuning": [{"scene": {"table": "dark", "step_shadow": False},
+                                 "views": [{**ends, "ours": {"result": "found"}}]}]}
+    assert not any(k.startswith("plate corners") for k in wrong_by_scene(old))
 
 
 def test_the_gallery_draws_the_truth_under_the_detection_and_picks_by_part() -> None:
