@@ -132,3 +132,19 @@ def test_the_gallery_draws_the_truth_under_the_detection_and_picks_by_part() -> 
     assert [(c[3], i) for c, i, _ in chosen({"rows": rows}, "wrong", "tuning", corner)] == [(3, 0)]
     assert len(chosen({"rows": rows}, "wrong", "tuning", "table dark")) == 2
     assert chosen({"rows": rows}, "wrong", "tuning", "table plain") == []
+
+
+def test_the_gallery_says_so_when_no_view_has_the_feature_asked_for(tmp_path, capsys) -> None:
+    import json
+
+    from bench.detect_gallery import main
+
+    report = tmp_path / "detect.json"
+    report.write_text(json.dumps({"rows": {"wide/easy/tuning": [
+        {"case": ["wide", "easy", "tuning", 1], "scene": {"table": "dark", "step_shadow": False},
+         "views": [{"end_kinds": ["image_border"] * 2, "ours": {"result": "wrong"}}]}]}}))
+    assert main(["--report", str(report), "--feature", "table nonsense",
+                 "--out", str(tmp_path / "g")]) == 1
+    err = capsys.readouterr().err
+    assert "'table nonsense'" in err and "by what the scene had" in err
+    assert not (tmp_path / "g").exists()
