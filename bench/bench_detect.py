@@ -25,7 +25,9 @@ pair of our detections is triangulated with the exact calibration as the cycle d
 (controller.stereo.locate with each view's end kinds and gap width, the scene's nominal region
 as the job would give it, unseen ends not clipped): **located** (every point within 0.5 mm of the
 true seam both views see, covering >= 90 % of it), **partial** (within 0.5 mm, shorter),
-**wrong** (a point off by more than 1 mm) or **refused**. Then a reliability table (confidence
+**wrong** (a point off by more than 1 mm) or **refused**; and again with a job that clips the
+ends no view sees to that region (``[seam] clip_unseen_ends``; a seam that leaves both images
+can only be located so). Then a reliability table (confidence
 bins vs the share of returned seams that were found) and the time per 2272x1704 image as a ratio
 to ``cv2.Canny(grey, 50, 150)`` on the same image in the same run (the three alternating).
 Writes ``--out`` (JSON) and the README tables next to it (``.md``).
@@ -126,6 +128,10 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
                        else {"result": "refused"})
         row["pair"]["ends_seen"] = all(k == "joint_end" for v in row["views"]
                                        for k in v["end_kinds"])
+        # The same pair with a job that lets the seam be clipped to its nominal region where no
+        # view sees an end ([seam] clip_unseen_ends): how long seams are welded.
+        row["pair_clip"] = (_locate(z, curves, widths, kinds, cam, clip=True)
+                            if len(curves) == 2 else {"result": "refused"})
     return row
 
 
@@ -152,8 +158,9 @@ def scene_features(case: tuple[str, str, str, int]) -> dict[str, Any]:
 
 
 def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | None],
-            kinds: list[tuple[str, str] | None], cam: Any) -> dict[str, Any]:
-    # As the cycle locates (controller/cell/guidance.py): with each view's end kinds and width.
+            kinds: list[tuple[str, str] | None], cam: Any, clip: bool = False) -> dict[str, Any]:
+    # As the cycle locates (controller/cell/guidance.py): with each view's end kinds and width;
+    # ``clip``: the job allows clipping ends no view sees to its nominal region.
     both = np.intersect1d(z["seam_index0"], z["seam_index1"])
     truth = z["seam_points_mm"][both]
     views = [ViewObservation(cam, z[f"T{i}"], c, f"view{i + 1}", k, w)
@@ -161,7 +168,8 @@ def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | No
     t0 = time.perf_counter()
     try:
         P3 = locate_seam(views, nominal_region=(np.asarray(z["centre_mm"]),
-                                                float(z["radius_mm"]) + 20.0)).dense_points_mm
+                                                float(z["radius_mm"]) + 20.0),
+                         clip_unseen_ends=clip).dense_points_mm
     except SeamguideError as err:
         return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:160]}"}
     dt = time.perf_counter() - t0
@@ -198,6 +206,10 @@ def summarise(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
         out["pairs_ends_seen_located"] = sum(p["result"] == "located" for p in seen)
         rms = [p["rms_mm"] for p in pairs if p["result"] == "located"]
         out["pairs_rms_mm_median"] = float(np.median(rms)) if rms else None
+        clip = [r["pair_clip"] for r in rows if "pair_clip" in r]  # reports before 2026-12-03
+        if clip:
+            for k in ("located", "partial", "wrong"):
+                out[f"pairs_clip_{k}"] = sum(p["result"] == k for p in clip)
     return out
 
 
@@ -404,6 +416,14 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _clip_cell(x: dict[str, Any]) -> str:
+    """located (share) / partial / wrong of the pairs located with unseen ends clipped."""
+    if "pairs_clip_located" not in x:
+        return "-"
+    return (f"{_pct(x['pairs_clip_located'], x['pairs'])} / {x['pairs_clip_partial']} / "
+            f"{x['pairs_clip_wrong']}")
+
+
 def _pct(a: int, n: int) -> str:
     return f"{a}/{n} ({100 * a / n:.0f} %)" if n else "-"
 
@@ -435,15 +455,17 @@ def markdown(rep: dict[str, Any]) -> str:
                          f"({x.get('found_end_at_border', 0)}) | {x['refused']} | "
                          f"{x['wrong']} ({x['wrong_pen']}) | {x['crash']} |")
     lines += ["", "| pairs: set / difficulty / part | pairs | located | partial | wrong | "
-              "refused | located, both ends seen in both views | 3D RMS median (located) |",
-              "|---|---|---|---|---|---|---|---|"]
+              "refused | located, both ends seen in both views | 3D RMS median (located) | "
+              "the job clipping unseen ends: located / partial / wrong |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for key, s in rep["summary"].items():
         x = s["ours"]
         if "pairs" in x:
             rms = "-" if x["pairs_rms_mm_median"] is None else f"{x['pairs_rms_mm_median']:.3f} mm"
             lines.append(f"| {key} | {x['pairs']} | {_pct(x['pairs_located'], x['pairs'])} | "
                          f"{x['pairs_partial']} | {x['pairs_wrong']} | {x['pairs_refused']} | "
-                         f"{_pct(x['pairs_ends_seen_located'], x['pairs_ends_seen'])} | {rms} |")
+                         f"{_pct(x['pairs_ends_seen_located'], x['pairs_ends_seen'])} | {rms} | "
+                         f"{_clip_cell(x)} |")
     lines += ["", "Reliability (ours, single views of the wide and pen sets): share of returned "
               "seams found per confidence bin.", "",
               "| confidence | " + " | ".join(rep["reliability"]) + " |",

@@ -33,3 +33,22 @@ def test_pairs_are_located_with_the_detectors_end_kinds(monkeypatch: pytest.Monk
     assert v2.end_kinds is None and v2.gap_width_px is None
     centre, radius = seen["kw"]["nominal_region"]
     assert radius == 70.0 and np.allclose(centre, 0.0)
+    assert seen["kw"]["clip_unseen_ends"] is False  # the job's default
+    bench_detect._locate(z, [curve, curve], [4.0, None], kinds, default_camera(), clip=True)
+    assert seen["kw"]["clip_unseen_ends"] is True
+
+
+def test_pair_summary_counts_the_clipped_pairs_and_old_reports_say_nothing() -> None:
+    def row(plain: str, clipped: str | None) -> dict[str, Any]:
+        r: dict[str, Any] = {"views": [], "pair": {"result": plain, "ends_seen": False,
+                                                   "rms_mm": 0.02}}
+        if clipped is not None:
+            r["pair_clip"] = {"result": clipped}
+        return r
+
+    s = bench_detect.summarise([row("refused", "located"), row("located", "located"),
+                                row("refused", "wrong")], "ours")
+    assert (s["pairs_located"], s["pairs_clip_located"], s["pairs_clip_wrong"]) == (1, 2, 1)
+    assert bench_detect._clip_cell(s) == "2/3 (67 %) / 0 / 1"
+    old = bench_detect.summarise([row("refused", None)], "ours")
+    assert "pairs_clip_located" not in old and bench_detect._clip_cell(old) == "-"
