@@ -117,7 +117,29 @@ def _continues(run: F64, end_pt: F64, tang: F64) -> bool:
     nrm = np.array([-tang[1], tang[0]])
     rel = run - end_pt
     along, lat = rel @ tang, rel @ nrm
-    if np.any(np.abs(lat) > 6.0 + 0.15 * np.maximum(along, 0.0)):
+    a = np.maximum(along, 0.0)
+    if np.any(np.abs(lat) > 6.0 + 0.15 * a):
         return False
     d = run[-1] - run[0]
-    return bool(d @ tang > np.cos(np.radians(20.0)) * np.linalg.norm(d))
+    if not d @ tang > np.cos(np.radians(20.0)) * np.linalg.norm(d):
+        return False
+    # A seam that curves away from its line beyond a patch turns as it goes: at ``a`` px on,
+    # a curve leaves the line by at most ``a`` times the turn (a circle by half of that, from
+    # its tangent; more from a chord behind the end). A line beside it that runs parallel has
+    # the offset without the turn: a pen line that fades out beside the joint, whose end would
+    # be bridged onto the joint 15-30 px aside and take the joint's end for its own.
+    u = _direction(run, tang)
+    turn = float(np.arctan2(u @ nrm, u @ tang))  # rad, toward +nrm
+    allow = 6.0 + _TURN_SLACK * a + a * np.maximum(0.0, turn * np.sign(lat))
+    return bool(np.all(np.abs(lat) <= allow))
+
+
+#: Slack (px per px along) for the noise in the seam's and the run's directions (~2 deg).
+_TURN_SLACK = 0.04
+
+
+def _direction(run: F64, tang: F64) -> F64:
+    """Unit direction of the line fitted to ``run`` (its principal axis), oriented along ``tang``."""
+    c = run - run.mean(axis=0)
+    u = np.linalg.svd(c, full_matrices=False)[2][0]
+    return u if u @ tang >= 0 else -u
