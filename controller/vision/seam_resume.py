@@ -139,7 +139,7 @@ _TURN_SLACK = 0.04
 
 
 def _direction(run: F64, tang: F64) -> F64:
-    """Unit direction of the line fitted to ``run`` (its principal axis), oriented along ``tang``."""
+    """Unit direction of the line fitted to ``run`` (principal axis), oriented along ``tang``."""
     c = run - run.mean(axis=0)
     u = np.linalg.svd(c, full_matrices=False)[2][0]
     return u if u @ tang >= 0 else -u
