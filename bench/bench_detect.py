@@ -86,10 +86,10 @@ def _detect(name: str, img: np.ndarray, cam: Any) -> dict[str, Any]:
             pts, conf, kinds, width, way = published_detect(img), 1.0, None, None, ""
             stats = {}
     except SeamguideError as err:
-        return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:160]}",
+        return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:600]}",
                 "time_s": time.perf_counter() - t0}
     except Exception as err:  # noqa: BLE001 - a crash is a result to count, not a stop
-        return {"result": "crash", "error": f"{type(err).__name__}: {str(err)[:160]}",
+        return {"result": "crash", "error": f"{type(err).__name__}: {str(err)[:600]}",
                 "time_s": time.perf_counter() - t0}
     return {"result": "returned", "points": pts, "confidence": conf, "kinds": kinds,
             "width_px": width, "way": way, "stats": stats,
@@ -171,7 +171,7 @@ def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | No
                                                 float(z["radius_mm"]) + 20.0),
                          clip_unseen_ends=clip).dense_points_mm
     except SeamguideError as err:
-        return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:160]}"}
+        return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:600]}"}
     dt = time.perf_counter() - t0
     if len(truth) < 2:
         return {"result": "wrong", "why": "no common seam in view", "time_s": dt}

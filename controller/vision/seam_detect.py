@@ -158,7 +158,8 @@ class SeamDetection:
 
 def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
                 roi: tuple[int, int, int, int] | None = None, hint: ArrayLike | None = None,
-                params: DetectParams | None = None) -> SeamDetection:
+                params: DetectParams | None = None,
+                trace: list[list[Candidate]] | None = None) -> SeamDetection:
     """Find the seam in ``image`` (uint8, greyscale HxW or BGR HxWx3) and return its centreline.
 
     ``camera``: when given, the image size must match it (a wrong-size image is an
@@ -167,6 +168,9 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     from it are ignored. Raises :class:`SeamNotFound` (no candidate passes), :class:`AmbiguousSeam`
     (two candidates of similar strength, or a second line beside the best one at a pen line's
     distance), :class:`InputError` (not a uint8 image, wrong size, bad ROI).
+    ``trace``: when given, every list of candidates a choice is made over is appended to it, in
+    order (the first way's; with the finer grid's; the valley paths'), ROI px: what
+    ``bench.detect_funnel`` reads to say where a joint was lost.
     """
     p = params or DetectParams()
     grey = _as_grey(image)
@@ -188,14 +192,20 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     table = functools.partial(mark_table_lines, lines=lines, p=p, straighten=straighten)
     cands = _refined(sub, lut, cands, table, hint_arr, p)
     details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
+
+    def decide(cands: list[Candidate]) -> tuple[Candidate, float, float, list[str]]:
+        if trace is not None:
+            trace.append(list(cands))
+        return choose(cands, p, details, (x0, y0))
+
     try:
-        best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
+        best, ratio, conf, reasons = decide(cands)
     except SeamNotFound as first:
         if not p.robust:
             raise
         both = cands + _hairline_look(sub, lut, cands, table, hint_arr, factor, p)
         try:
-            best, ratio, conf, reasons = choose(both, p, details, (x0, y0))
+            best, ratio, conf, reasons = decide(both)
         except SeamNotFound:
             pass
         else:
@@ -209,7 +219,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         if hint_arr is not None:
             cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
         details["first_way"] = str(first)
-        best, ratio, conf, reasons = choose(cands, p, details, (x0, y0))
+        best, ratio, conf, reasons = decide(cands)
         reasons.append("found as a whole-image valley path (the two-edge profile model did not "
                        "fit the gap)")
     no_parallel_valley(sub, lut, best, hint_arr, p, x0, y0)

@@ -1,0 +1,137 @@
+"""Where the joint is lost: for each refused view, the stage and the verdict on the joint's line.
+
+Usage (from the repository root, on the render cache of ``bench.bench_detect``)::
+
+    .venv/bin/python -m bench.detect_funnel [--part tuning|heldout] [--pairs 50] [--pen-pairs 25]
+        [--jobs 2] [--out bench/out/funnel.json]
+
+A refusal's message names the candidates' reasons, but not which of them was the joint. Here
+each view of the wide and pen sets is detected again with ``detect_seam(trace=...)``, which
+hands over every list of candidates a choice was made over (the first way's, with the finer
+grid's, the valley paths'). A candidate *is the joint* when its points lie within
+:data:`NEAR_PX` (median) of the true centreline and it covers :data:`COVER_SHARE` of it. Each
+refused view is put in the first stage where the joint was a candidate, with that candidate's
+verdict (its reason with the numbers taken out, or "passed every check, refused for a rival");
+or "no candidate on the joint". Prints the table (markdown) and writes the rows as JSON.
+
+The default part is ``tuning``, as for ``bench.detect_gallery``: reading the held-out part's
+failures one by one is how a rule gets fitted to it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import re
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from bench.detect_cases import case_cached, case_list, load_case, view_truth
+from controller.errors import SeamguideError
+from controller.geometry.camera_model import default_camera
+from controller.vision.seam_detect import detect_seam
+from controller.vision.seam_params import Candidate
+
+NEAR_PX = 4.0  # median distance (px) of a candidate's points from the true centreline
+COVER_SHARE = 0.5  # share of the true centreline within 6 px of the candidate
+STAGES = ("first way", "finer grid", "valley paths")
+
+
+def on_joint(points: NDArray[np.float64] | None, truth_px: NDArray[np.float64]) -> bool:
+    """Whether a candidate's points (N, 2) px lie on the true centreline (M, 2) px: within
+    :data:`NEAR_PX` (median) of it and covering :data:`COVER_SHARE` of it (to 6 px)."""
+    if points is None or len(points) < 2 or len(truth_px) < 2:
+        return False
+    d_to_truth = cKDTree(truth_px).query(points)[0]
+    d_to_cand = cKDTree(points).query(truth_px)[0]
+    return bool(np.median(d_to_truth) < NEAR_PX and np.mean(d_to_cand < 6.0) >= COVER_SHARE)
+
+
+def _reason(text: str) -> str:
+    """A rejection reason with its numbers taken out, cut at its first parenthesis."""
+    return re.sub(r"-?\d+(\.\d+)?", "#", text.split(" (")[0]).strip()
+
+
+def where_lost(stages: list[list[Candidate]], truth_px: NDArray[np.float64]) -> tuple[str, str]:
+    """(stage, verdict) of the first stage whose candidates include the joint's line.
+
+    ``stages``: the candidate lists of ``detect_seam(trace=...)`` in order (:data:`STAGES`),
+    full-image px (the detection was run without a region of interest). The second holds the
+    first's candidates again with the finer grid's added.
+    """
+    for name, cands in zip(STAGES, stages, strict=False):
+        joint = [c for c in cands
+                 if on_joint(c.points if c.points is not None else c.polyline, truth_px)]
+        if joint:
+            c = max(joint, key=lambda k: k.score)
+            return name, (_reason(c.why_rejected) if c.why_rejected
+                          else "passed every check, refused for a rival")
+    return "none", "no candidate on the joint"
+
+
+def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
+    """Each view of a cached case: detected with a trace, and where its joint was lost."""
+    cam = default_camera()
+    imgs, z = load_case(case)
+    rows = []
+    for i, img in enumerate(imgs):
+        truth = view_truth(z, i)
+        stages: list[list[Candidate]] = []
+        try:
+            detect_seam(img, camera=cam, trace=stages)
+        except SeamguideError:
+            stage, verdict = where_lost(stages, np.asarray(truth["seam_px"], np.float64))
+        else:
+            stage, verdict = "returned", ""
+        rows.append({"case": list(case), "view": i, "stage": stage, "verdict": verdict})
+    return rows
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """Markdown: refused views per (stage, verdict), most first, with up to 3 examples."""
+    refused = [r for r in rows if r["stage"] != "returned"]
+    count = collections.Counter((r["stage"], r["verdict"]) for r in refused)
+    out = [f"{len(refused)} of {len(rows)} views refused; where the joint was lost:", "",
+           "| stage | verdict on the joint's line | views | e.g. |", "|---|---|---|---|"]
+    for (stage, verdict), n in count.most_common():
+        ex = [f"{r['case'][1]} {r['case'][3]} v{r['view']}" for r in refused
+              if (r["stage"], r["verdict"]) == (stage, verdict)][:3]
+        out.append(f"| {stage} | {verdict} | {n} | {', '.join(ex)} |")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Detect the cached views of one part, print the table, write the rows; 0, or 1 if none."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--part", choices=("tuning", "heldout"), default="tuning")
+    ap.add_argument("--pairs", type=int, default=50, help="wide pairs per difficulty")
+    ap.add_argument("--pen-pairs", type=int, default=25)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--out", default="bench/out/funnel.json")
+    a = ap.parse_args(argv)
+    cases = [c for d in ("easy", "medium", "hard") for c in case_list("wide", d, a.part, a.pairs)]
+    cases += case_list("pen", "mixed", a.part, a.pen_pairs)
+    cases = [c for c in cases if case_cached(c)]
+    if not cases:
+        print("detect_funnel: no cached renders of that part: run `.venv/bin/python -m "
+              "bench.bench_detect --render-only` first", file=sys.stderr)
+        return 1
+    with ProcessPoolExecutor(a.jobs) as ex:
+        rows = [r for rs in ex.map(run_case, cases) for r in rs]
+    if a.part == "heldout":
+        print("(the held-out part: to measure with, not to tune on)")
+    print(table(rows))
+    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(a.out).write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

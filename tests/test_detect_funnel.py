@@ -1,0 +1,56 @@
+"""bench.detect_funnel says where a refused view's joint was lost, from the detector's trace."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from bench.detect_funnel import on_joint, table, where_lost
+from controller.errors import SeamNotFound
+from controller.vision.seam_detect import detect_seam
+from controller.vision.seam_params import Candidate
+
+TRUTH = np.column_stack([np.linspace(0, 1000, 251), np.full(251, 300.0)])
+
+
+def _cand(y: float, x1: float = 1000.0, why: str = "", score: float = 1.0) -> Candidate:
+    pts = np.column_stack([np.linspace(0, x1, 100), np.full(100, y)])
+    return Candidate(polyline=pts, coarse_score=1.0, length_px=x1, points=pts, score=score,
+                     why_rejected=why)
+
+
+def test_a_candidate_is_the_joint_when_near_it_and_covering_half_of_it() -> None:
+    assert on_joint(_cand(302.0).points, TRUTH)
+    assert not on_joint(_cand(330.0).points, TRUTH)  # a pen line beside it
+    assert not on_joint(_cand(300.0, x1=300.0).points, TRUTH)  # a piece of it, 30 %
+
+
+def test_the_first_stage_with_the_joint_names_the_verdict_without_its_numbers() -> None:
+    pen = _cand(330.0, why="dark line of 1000 px fades out inside the sheet")
+    piece = _cand(300.0, x1=300.0, why="gap run only 300 px long (< 300)")
+    joint = _cand(301.0, why="candidate of 1000 px has no long run of gap profiles (3 of 9 good)")
+    assert where_lost([[pen, piece]], TRUTH) == ("none", "no candidate on the joint")
+    assert where_lost([[pen], [pen, joint]], TRUTH) == (
+        "finer grid", "candidate of # px has no long run of gap profiles")
+    assert where_lost([[pen, _cand(300.0)], [], []], TRUTH) == (
+        "first way", "passed every check, refused for a rival")
+    rows = [{"case": ["wide", "easy", "tuning", 7], "view": 0, "stage": "first way",
+             "verdict": "x"}, {"case": ["wide", "easy", "tuning", 7], "view": 1,
+                               "stage": "returned", "verdict": ""}]
+    md = table(rows)
+    assert "1 of 2 views refused" in md and "| first way | x | 1 | easy 7 v0 |" in md
+
+
+def test_the_detector_hands_over_every_list_it_chose_from() -> None:
+    rng = np.random.default_rng(0)
+    img = np.clip(cv2.GaussianBlur(np.full((600, 800), 150.0), (0, 0), 1.0)
+                  + rng.normal(0, 3, (600, 800)), 0, 255).astype(np.uint8)
+    stages: list[list[Candidate]] = []
+    try:
+        detect_seam(img, trace=stages)
+    except SeamNotFound:
+        pass
+    else:
+        raise AssertionError("a plain sheet has no seam")
+    assert len(stages) == 3  # the first way, with the finer grid, the valley paths
+    assert all(isinstance(c, Candidate) for s in stages for c in s)
