@@ -11,7 +11,8 @@ hands over every list of candidates a choice was made over (the first way's, wit
 grid's, the valley paths'). A candidate *is the joint* when its points lie within
 :data:`NEAR_PX` (median) of the true centreline and it covers :data:`COVER_SHARE` of it. Each
 refused view is put in the first stage where the joint was a candidate, with that candidate's
-verdict (its reason with the numbers taken out, or "passed every check, refused for a rival");
+verdict (its reason with the numbers taken out; or, where it passed every check, "too weak" when
+even without a rival its confidence is under ``min_confidence``, else "refused for a rival");
 or "no candidate on the joint". Prints the table (markdown) and writes the rows as JSON.
 
 The default part is ``tuning``, as for ``bench.detect_gallery``: reading the held-out part's
@@ -36,8 +37,9 @@ from scipy.spatial import cKDTree
 from bench.detect_cases import case_cached, case_list, load_case, view_truth
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
+from controller.vision.seam_decision import rate_confidence
 from controller.vision.seam_detect import detect_seam
-from controller.vision.seam_params import Candidate
+from controller.vision.seam_params import Candidate, DetectParams
 
 NEAR_PX = 4.0  # median distance (px) of a candidate's points from the true centreline
 COVER_SHARE = 0.5  # share of the true centreline within 6 px of the candidate
@@ -71,9 +73,19 @@ def where_lost(stages: list[list[Candidate]], truth_px: NDArray[np.float64]) -> 
                  if on_joint(c.points if c.points is not None else c.polyline, truth_px)]
         if joint:
             c = max(joint, key=lambda k: k.score)
-            return name, (_reason(c.why_rejected) if c.why_rejected
-                          else "passed every check, refused for a rival")
+            return name, _verdict(c)
     return "none", "no candidate on the joint"
+
+
+def _verdict(c: Candidate) -> str:
+    """Why the joint's candidate ``c`` was not returned: its rejection, or at the decision."""
+    if c.why_rejected:
+        return _reason(c.why_rejected)
+    conf, _ = rate_confidence(c, 0.0)  # as strong as it can be: no rival
+    if conf < DetectParams().min_confidence:
+        unsure = any(k.startswith("unsure") for k in c.end_kinds)
+        return "passed, too weak" + (" (an end read as unsure)" if unsure else "")
+    return "passed, refused for a rival"
 
 
 def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:

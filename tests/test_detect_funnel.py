@@ -32,8 +32,13 @@ def test_the_first_stage_with_the_joint_names_the_verdict_without_its_numbers() 
     assert where_lost([[pen, piece]], TRUTH) == ("none", "no candidate on the joint")
     assert where_lost([[pen], [pen, joint]], TRUTH) == (
         "finer grid", "candidate of # px has no long run of gap profiles")
-    assert where_lost([[pen, _cand(300.0)], [], []], TRUTH) == (
-        "first way", "passed every check, refused for a rival")
+    strong = _cand(300.0)
+    strong.valid_frac, strong.depth, strong.end_kinds = 1.0, 0.6, ("sheet border", "image border")
+    assert where_lost([[pen, strong], [], []], TRUTH) == (
+        "first way", "passed, refused for a rival")
+    strong.end_kinds = ("unsure sheet border", "image border")
+    assert where_lost([[pen, strong]], TRUTH) == (
+        "first way", "passed, too weak (an end read as unsure)")
     rows = [{"case": ["wide", "easy", "tuning", 7], "view": 0, "stage": "first way",
              "verdict": "x"}, {"case": ["wide", "easy", "tuning", 7], "view": 1,
                                "stage": "returned", "verdict": ""}]
