@@ -17,6 +17,8 @@ from controller.vision.seam_profiles import fit_at
 _RESUME_REACH_PX = 260.0  # longest covered stretch looked across (a tack weld ~5-12 mm)
 RESUME_RUN_PX = 40.0  # the gap must be seen again over this length, in one run
 _FAN_DEG = tuple(float(a) for a in range(-16, 17, 4))  # 4 deg: +-8 px at 115 px
+#: Slack (px per px along) for the noise in the seam's and the run's directions (~2 deg).
+_TURN_SLACK = 0.04
 
 
 def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med: float,
@@ -110,9 +112,10 @@ def _continues(run: F64, end_pt: F64, tang: F64) -> bool:
     """Whether ``run`` (px, outward) continues the seam ending at ``end_pt`` along ``tang``.
 
     Close to the seam's line (lateral offset at most 6 px + 15 % of the distance: a curve of
-    radius 500 px stays inside over 250 px) and in about its direction (20 deg): a line
-    parallel to the seam beside it (a pen line beside the joint, the joint beside a pen line)
-    is another line, not the same gap beyond a patch.
+    radius 500 px stays inside over 250 px), in about its direction (20 deg), and turned toward
+    the side it lies on by as much as its offset needs (below): a line parallel to the seam
+    beside it (a pen line beside the joint, the joint beside a pen line) is another line, not
+    the same gap beyond a patch.
     """
     nrm = np.array([-tang[1], tang[0]])
     rel = run - end_pt
@@ -123,19 +126,16 @@ def _continues(run: F64, end_pt: F64, tang: F64) -> bool:
     d = run[-1] - run[0]
     if not d @ tang > np.cos(np.radians(20.0)) * np.linalg.norm(d):
         return False
-    # A seam that curves away from its line beyond a patch turns as it goes: at ``a`` px on,
-    # a curve leaves the line by at most ``a`` times the turn (a circle by half of that, from
-    # its tangent; more from a chord behind the end). A line beside it that runs parallel has
-    # the offset without the turn: a pen line that fades out beside the joint, whose end would
-    # be bridged onto the joint 15-30 px aside and take the joint's end for its own.
+    # A seam that curves away from its line beyond a patch turns as it goes: ``a`` px on, it
+    # lies aside by at most ``a`` times the run's turn (a circle leaves its tangent by half of
+    # that; ``tang`` may be a chord over the stretch before the end, already turned, and the
+    # bound still holds). A line beside it that runs parallel has the offset without the turn:
+    # a pen line fading out beside the joint, whose end would be bridged onto the joint 15-30
+    # px aside and take the joint's end for its own.
     u = _direction(run, tang)
     turn = float(np.arctan2(u @ nrm, u @ tang))  # rad, toward +nrm
     allow = 6.0 + _TURN_SLACK * a + a * np.maximum(0.0, turn * np.sign(lat))
     return bool(np.all(np.abs(lat) <= allow))
-
-
-#: Slack (px per px along) for the noise in the seam's and the run's directions (~2 deg).
-_TURN_SLACK = 0.04
 
 
 def _direction(run: F64, tang: F64) -> F64:
