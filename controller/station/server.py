@@ -46,6 +46,12 @@ class StationServer:
         # In this order: running tasks still wake the loop through its trigger when they end;
         # closing every channel (the listener and the trigger included) then ends run().
         self._server.task_dispatcher.shutdown(cancel_pending=True, timeout=5)
-        wasyncore.close_all(self._server._map)
-        if self._thread is not None:
+        server_map = self._server._map
+        if self._thread is not None and self._thread.is_alive():
+            # Closed by the loop's own thread, between two select() calls: a socket closed
+            # from here while the loop waits on it in select() ends the loop with EBADF
+            # (waitress issue 468, fixed upstream after 3.0.2, the release this machine has).
+            self._server.trigger.pull_trigger(lambda: wasyncore.close_all(server_map))
             self._thread.join(timeout=5.0)
+        if server_map:  # never started, or the loop did not run the close
+            wasyncore.close_all(server_map)

@@ -1,0 +1,60 @@
+"""The station's HTTP server stops without killing its loop (waitress issue 468).
+
+Closing the listener from the stopping thread while the server's loop waits on it in select()
+raised EBADF in the loop's thread now and then (a PytestUnhandledThreadExceptionWarning in the
+browser tests). The channels are now closed by the loop's own thread.
+"""
+
+from __future__ import annotations
+
+import threading
+import urllib.request
+from typing import Any
+
+import pytest
+from waitress import wasyncore
+
+from controller.station.server import StationServer
+
+
+def _app(environ: dict[str, Any], start_response: Any) -> list[bytes]:
+    start_response("200 OK", [("Content-Type", "text/plain")])
+    return [b"ok"]
+
+
+def test_the_loop_closes_its_own_channels_and_ends(monkeypatch: pytest.MonkeyPatch) -> None:
+    closed_by: list[str] = []
+    real = wasyncore.close_all
+
+    def spy(map: Any = None, ignore_all: bool = False) -> None:
+        closed_by.append(threading.current_thread().name)
+        real(map, ignore_all)
+
+    monkeypatch.setattr(wasyncore, "close_all", spy)
+    server = StationServer(_app, "127.0.0.1", 0, 65536)
+    server.start()
+    with urllib.request.urlopen(server.url + "/", timeout=10) as r:
+        assert r.read() == b"ok"
+    server.stop()
+    assert closed_by == ["station"]  # the loop's thread, once
+    assert server._thread is not None and not server._thread.is_alive()
+
+
+def test_a_server_never_started_is_closed_by_stop() -> None:
+    server = StationServer(_app, "127.0.0.1", 0, 65536)
+    server.stop()
+    assert not server._server._map  # the listener closed, nothing left to leak
+
+
+def test_many_stops_leave_no_thread_exception() -> None:
+    errors: list[BaseException] = []
+    old = threading.excepthook
+    threading.excepthook = lambda args: errors.append(args.exc_value)  # type: ignore[assignment]
+    try:
+        for _ in range(20):
+            server = StationServer(_app, "127.0.0.1", 0, 65536)
+            server.start()
+            server.stop()
+    finally:
+        threading.excepthook = old
+    assert errors == []
