@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from bench.detect_cases import case_cached, case_list, load_case, view_truth
+from bench.detect_score import dist_to_polyline
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
 from controller.vision.seam_decision import rate_confidence
@@ -51,8 +51,9 @@ def on_joint(points: NDArray[np.float64] | None, truth_px: NDArray[np.float64]) 
     :data:`NEAR_PX` (median) of it and covering :data:`COVER_SHARE` of it (to 6 px)."""
     if points is None or len(points) < 2 or len(truth_px) < 2:
         return False
-    d_to_truth = cKDTree(truth_px).query(points)[0]
-    d_to_cand = cKDTree(points).query(truth_px)[0]
+    # The scorer's distance (bench.detect_score), so that "on the joint" means what it does there.
+    d_to_truth = dist_to_polyline(points, truth_px)
+    d_to_cand = dist_to_polyline(truth_px, points)
     return bool(np.median(d_to_truth) < NEAR_PX and np.mean(d_to_cand < 6.0) >= COVER_SHARE)
 
 
