@@ -59,3 +59,14 @@ def test_the_detector_hands_over_every_list_it_chose_from() -> None:
         raise AssertionError("a plain sheet has no seam")
     assert len(stages) == 3  # the first way, with the finer grid, the valley paths
     assert all(isinstance(c, Candidate) for s in stages for c in s)
+
+
+def test_no_cached_renders_is_said_with_what_to_run(monkeypatch, tmp_path, capsys) -> None:
+    from bench import detect_cases, detect_funnel
+
+    monkeypatch.setattr(detect_cases, "CACHE", tmp_path)  # an empty render cache
+    assert detect_funnel.main(["--pairs", "1", "--pen-pairs", "1",
+                               "--out", str(tmp_path / "f.json")]) == 1
+    err = capsys.readouterr().err
+    assert "no cached renders" in err and "bench.bench_detect --render-only" in err
+    assert not (tmp_path / "f.json").exists()
