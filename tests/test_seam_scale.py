@@ -34,7 +34,7 @@ TUNED = {"gamma": 2.2, "coarse_factor": 0, "valley_r_coarse": 3, "valley_r_px": 
          "min_profile_depth": 0.25, "bridge_px": 200.0, "join_px": 200.0,
          "piece_length_px": 100.0, "piece_join_px": 48.0, "ambiguity_ratio": 0.6,
          "min_confidence": 0.5, "max_candidates": 4, "robust": True, "straight_px": 2.5,
-         "pattern_offset_px": 200.0}
+         "pattern_offset_px": 200.0, "max_band_px": 0.0}
 SCALED = ("max_gap_px", "half_width_px", "valley_r_px", "min_length_px", "piece_length_px")
 
 
@@ -127,7 +127,8 @@ def test_a_close_up_gap_too_wide_for_the_defaults_is_found_with_the_scaled_param
 def test_the_job_key_gap_mm(tmp_path):
     base = {"name": "j", "views": [], "seam": {"nominal_centre_mm": [1000, 0, 0]}}
     job = job_from_dict(base)
-    assert job.seam.gap_mm == DEFAULT_GAP_MM == (0.1, 1.2)
+    # Not stated: None (the scales of the default range, no limit on the dark band).
+    assert job.seam.gap_mm is None and DEFAULT_GAP_MM == (0.1, 1.2)
     job = job_from_dict({**base, "seam": {**base["seam"], "gap_mm": [0.2, 1.5]}})
     from controller.cell.guidance import settings_from_job
 
@@ -160,10 +161,14 @@ def test_the_cycle_gives_each_view_the_scales_of_its_working_distance():
     (roi_n, p_near), (roi_f, p_far) = sorted(seen, key=lambda s: -s[1].max_gap_px)
     assert p_near == params_for_scale(28.4, (0.1, 1.5),
                                       seam_length_px=np.hypot(roi_n[2] - roi_n[0],
-                                                              roi_n[3] - roi_n[1]))
+                                                              roi_n[3] - roi_n[1]),
+                                      limit_band=True)
     assert p_near.max_gap_px == pytest.approx(1.25 * 1.5 * 28.4 + 2.0)
     # 400 mm: 7.1 px/mm, the seam at most 120 mm = 852 px long: the defaults' scales.
-    assert p_far == params_for_scale(7.1, (0.1, 1.5), seam_length_px=120.0 * 7.1)
+    assert p_far == params_for_scale(7.1, (0.1, 1.5), seam_length_px=120.0 * 7.1,
+                                     limit_band=True)
+    # The job states its gap: the widest dark band taken for it follows (seam_decision).
+    assert p_far.max_band_px == pytest.approx(1.25 * 1.5 * 7.1 + 2.0)
     assert (p_far.max_gap_px, p_far.min_length_px) == (16.0, 300.0)
     assert view_params(cam, far, settings, roi_f) == p_far
     # No nominal region (locate without a job): the detector's own defaults, no params passed.

@@ -64,7 +64,9 @@ class GuidanceSettings:
     ``path_tolerance``: how closely the segments sent to the controller follow the path;
     ``clip_unseen_ends``: an end no view saw is cut at the nominal region (the job allows it);
     ``gap_mm``: the expected gap (narrowest, widest, mm) that, with each view's working distance
-    to the nominal centre, sets the detector's pixel scales (:func:`view_params`).
+    to the nominal centre, sets the detector's pixel scales and the widest dark band taken for
+    the gap (:func:`view_params`); None (the job does not say): the scales of
+    :data:`~controller.vision.seam_scale.DEFAULT_GAP_MM` and no limit on the band.
     """
 
     quality: QualityLimits = QualityLimits()
@@ -77,7 +79,7 @@ class GuidanceSettings:
     workspace: WorkspaceBox = WorkspaceBox()
     path_tolerance: PathTolerance = field(default_factory=PathTolerance)
     clip_unseen_ends: bool = False
-    gap_mm: tuple[float, float] = DEFAULT_GAP_MM
+    gap_mm: tuple[float, float] | None = None
 
     @property
     def nominal_region(self) -> tuple[F64, float] | None:
@@ -154,10 +156,13 @@ def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSetting
         return None
     x0, y0, x1, y1 = roi if roi is not None else (0, 0, camera.width, camera.height)
     length = min(2.0 * radius * s, float(np.hypot(x1 - x0, y1 - y0)))
-    p = params_for_scale(s, settings.gap_mm, seam_length_px=length)
-    log.info("%.2f px/mm at %.0f mm (gap %g-%g mm): widest gap %.1f px, profiles +-%.1f px, "
-             "shortest seam %.0f px", s, camera.fx / s, *settings.gap_mm,
-             p.max_gap_px, p.half_width_px, p.min_length_px)
+    gap = settings.gap_mm or DEFAULT_GAP_MM
+    p = params_for_scale(s, gap, seam_length_px=length, limit_band=settings.gap_mm is not None)
+    log.info("%.2f px/mm at %.0f mm (gap %g-%g mm%s): widest gap %.1f px, profiles +-%.1f px, "
+             "shortest seam %.0f px%s", s, camera.fx / s, *gap,
+             "" if settings.gap_mm is not None else ", the default",
+             p.max_gap_px, p.half_width_px, p.min_length_px,
+             f", widest dark band {p.max_band_px:.1f} px" if p.max_band_px else "")
     return p
 
 

@@ -25,7 +25,7 @@ from controller.jsonio import atomic_write_text
 from controller.path.path_fit import PathTolerance
 from controller.path.weld_path import WeldParams, WorkspaceBox
 from controller.stereo.locate import QualityLimits
-from controller.vision.seam_scale import DEFAULT_GAP_MM, check_gap_mm
+from controller.vision.seam_scale import check_gap_mm
 from drivers.robot_commands import SafetyLimits
 
 
@@ -70,15 +70,18 @@ class SeamSpec:
     #: inside the nominal region instead of refusing the seam (default: refuse).
     clip_unseen_ends: bool = False
     #: The narrowest and the widest gap expected between the sheets (mm): with the working
-    #: distance, sets the detector's pixel scales (controller.vision.seam_scale).
-    gap_mm: tuple[float, float] = DEFAULT_GAP_MM
+    #: distance, sets the detector's pixel scales (controller.vision.seam_scale), and a dark band
+    #: wider than this gap can make is refused. None (not stated): the scales of
+    #: DEFAULT_GAP_MM and no limit on the band.
+    gap_mm: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.nominal_radius_mm <= 0:
             raise ConfigError(f"seam.nominal_radius_mm must be positive, got "
                               f"{self.nominal_radius_mm}")
         try:
-            check_gap_mm(self.gap_mm, "seam.gap_mm")
+            if self.gap_mm is not None:
+                check_gap_mm(self.gap_mm, "seam.gap_mm")
         except InputError as err:
             raise ConfigError(str(err)) from err
         if self.normal is not None and np.linalg.norm(self.normal) < 1e-9:

@@ -35,8 +35,9 @@ def register(sub: Any) -> None:
                    "--calibration): sets the detector's pixel scales from fx / Z px per mm "
                    "(without it: the defaults, tuned for about 6-8 px per mm)")
     p.add_argument("--gap-mm", type=float, nargs=2, metavar=("LO", "HI"),
-                   help="with --distance-mm: the narrowest and widest expected gap, mm "
-                   "(default 0.1 1.2)")
+                   help="with --distance-mm: the narrowest and widest expected gap, mm; a "
+                   "dark band wider than such a gap can be (a shadow beside it) is then refused "
+                   "(default: the scales of 0.1 1.2 and no limit on the band)")
     p.set_defaults(func=run)
 
 
@@ -103,7 +104,7 @@ def _scaled(params: Any, args: argparse.Namespace, camera: Any) -> Any:
     px_per_mm = camera.fx / args.distance_mm
     log.info("scales for %.2f px/mm (fx %.1f px at %.1f mm), gap %g-%g mm", px_per_mm,
              camera.fx, args.distance_mm, *gap)
-    return params_for_scale(px_per_mm, gap, base=params)
+    return params_for_scale(px_per_mm, gap, base=params, limit_band=args.gap_mm is not None)
 
 
 def _write_png(path: str, img: Any) -> None:

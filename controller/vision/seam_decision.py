@@ -24,6 +24,7 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
     at a pen line's distance); ``details`` (with the reasons of the
     rejected candidates added) go into the error. ``offset`` (x0, y0): ROI corner, for messages.
     """
+    _mark_too_wide(cands, p)
     good = sorted([c for c in cands if not c.why_rejected], key=lambda c: -c.score)
     rejected = [c.why_rejected for c in cands if c.why_rejected]
     details = {**details, "rejected": rejected}
@@ -43,8 +44,8 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
     x0, y0 = offset
     if second is not None and ratio >= p.ambiguity_ratio:
         what = ("two seam candidates of similar strength" if ratio <= 1.0 else
-                "a line stronger than the best seam candidate, rejected only for how it ends "
-                f"({second.why_rejected})")
+                "a line stronger than the best seam candidate, rejected for how it ends or "
+                f"how wide it is ({second.why_rejected})")
         raise AmbiguousSeam(
             f"{what} (score {best.score:.0f} vs {second.score:.0f}, ratio {ratio:.2f}); "
             "refusing to choose: give a --roi or a nominal seam hint",
@@ -69,6 +70,27 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
         raise SeamNotFound(f"best seam candidate too weak (confidence {conf:.2f}): "
                            + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
     return best, ratio, conf, reasons
+
+
+def _mark_too_wide(cands: list[Candidate], p: DetectParams) -> None:
+    """Reject candidates whose dark band (median width, px) is wider than ``p.max_band_px``.
+
+    Such a band is the gap and a shadow (or a mark) beside it as dark as the gap: one view
+    cannot tell which part is the gap, and the band's middle lies up to half the shadow's width
+    off it (README, seam vision). A rejected band stays a rival: a weaker line elsewhere is not
+    returned in its place.
+    """
+    if p.max_band_px <= 0:
+        return
+    for c in cands:
+        if c.why_rejected or c.width is None or not len(c.width):
+            continue
+        w = float(np.median(c.width))
+        if w > p.max_band_px:
+            c.why_rejected = (f"dark band {w:.1f} px wide where the job's gap makes at most "
+                              f"{p.max_band_px:.1f} px (a shadow or a mark beside the gap, or "
+                              "a wider gap than the job's seam.gap_mm says)")
+            c.rival = True
 
 
 #: A line beside the best candidate makes the choice ambiguous from this share of the best's

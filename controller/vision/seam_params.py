@@ -57,6 +57,10 @@ class DetectParams:
     straight; ``pattern_offset_px``: how far apart two parallel lines of a table's grid are at
     least (:mod:`controller.vision.seam_pattern`; 25 mm at 8 px/mm, farther than a pen line
     beside a joint).
+    ``max_band_px``: widest dark band (median over the seam, px) taken for the gap (0: no limit).
+    Set only where the job states its gap (:func:`controller.vision.seam_scale.params_for_scale`
+    with ``limit_band``): a band wider than that gap can be is the gap and a shadow or a mark
+    beside it, whose middle is off the gap's, and is refused, not returned.
     """
 
     gamma: float = 2.2
@@ -81,6 +85,7 @@ class DetectParams:
     robust: bool = True
     straight_px: float = 2.5
     pattern_offset_px: float = 200.0
+    max_band_px: float = 0.0
 
 
 @dataclass

@@ -8,7 +8,10 @@ and the job give the working distance ``Z`` (mm, along the optical axis), the sc
 ``px_per_mm = fx / Z`` (:func:`px_per_mm_at`) and :func:`params_for_scale` sets the scales that
 follow from it. The floors are the defaults: the scales only grow with a wider gap, so what the
 defaults reject as noise at their own distance is still rejected; only the shortest seam kept
-shrinks, down to :data:`MIN_LENGTH_FLOOR_PX`, when the whole seam is short in the image.
+shrinks, down to :data:`MIN_LENGTH_FLOOR_PX`, when the whole seam is short in the image. One
+exception, on the job's word: where the job states its gap, a dark band wider than that gap, a
+shadow and blur can make it is refused (``max_band_px``): it is the gap with a shadow or a mark
+beside it, and its middle is off the gap's.
 """
 
 from __future__ import annotations
@@ -63,7 +66,7 @@ def check_gap_mm(gap_mm: ArrayLike, name: str = "gap_mm") -> tuple[float, float]
 
 
 def params_for_scale(px_per_mm: float, gap_mm: ArrayLike = DEFAULT_GAP_MM, *,
-                     seam_length_px: float | None = None,
+                     seam_length_px: float | None = None, limit_band: bool = False,
                      base: DetectParams | None = None) -> DetectParams:
     """``base`` (default :class:`DetectParams`) with its pixel scales set for ``px_per_mm``.
 
@@ -82,7 +85,12 @@ def params_for_scale(px_per_mm: float, gap_mm: ArrayLike = DEFAULT_GAP_MM, *,
       not under :data:`MIN_LENGTH_FLOOR_PX`; ``piece_length_px`` at most that;
     - ``pattern_offset_px`` (closest two lines of a table's grid) =
       ``max(base, GRID_PITCH_MM * px_per_mm)``: a pen line 20 mm beside a close-up joint is not
-      a grid's second line.
+      a grid's second line;
+    - ``max_band_px`` (widest dark band taken for the gap) = ``b`` when ``limit_band`` (the job
+      states its gap: a band wider than ``b`` is a shadow or a mark beside the gap, and its
+      middle is not the gap's), else ``base``'s (0: no limit). Only this narrows what the
+      defaults accept, and only on the job's word: a gap range left at the default
+      does not limit the band (a wide gap is still found by the valley paths).
 
     Everything else is ``base``'s (the defaults' noise floors: depth, fit, confidence). While
     ``w <= 11.2`` px (the default 1.2 mm gap at up to 9.3 px/mm: fx 2840 px from 305 mm on) the
@@ -111,7 +119,8 @@ def params_for_scale(px_per_mm: float, gap_mm: ArrayLike = DEFAULT_GAP_MM, *,
                    valley_r_px=max(p.valley_r_px, band / 2),
                    min_length_px=min_length,
                    piece_length_px=min(p.piece_length_px, min_length),
-                   pattern_offset_px=max(p.pattern_offset_px, GRID_PITCH_MM * s))
+                   pattern_offset_px=max(p.pattern_offset_px, GRID_PITCH_MM * s),
+                   max_band_px=band if limit_band else p.max_band_px)
 
 
 def px_per_mm_at(fx_px: float, T_base_cam: ArrayLike, point_mm: ArrayLike) -> float | None:
