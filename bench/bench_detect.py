@@ -72,11 +72,12 @@ from controller.vision.seam_detect import detect_seam
 BINS = (0.0, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99, 1.0001)
 
 
-def _detect(name: str, img: np.ndarray, cam: Any) -> dict[str, Any]:
+def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None) -> dict[str, Any]:
+    # ``params``: ours' DetectParams (None: the defaults, as the benchmark measures).
     t0 = time.perf_counter()
     try:
         if name == "ours":
-            det = detect_seam(img, camera=cam)
+            det = detect_seam(img, camera=cam, params=params)
             pts, conf, kinds = det.points_px, float(det.confidence), end_kinds_of(det)
             width: float | None = det.gap_width_px
             way = str(det.stats.get("way", ""))

@@ -1,0 +1,118 @@
+"""Seam detection when the job states its gap: the dark band limit (``[seam] gap_mm``) measured.
+
+Usage (from the repository root; needs the cached renders of ``bench.bench_detect``)::
+
+    .venv/bin/python -m bench.bench_detect_job_gap [--jobs 2] [--range 0.5 1.5]
+        [--out bench/out/detect_job_gap.json]
+
+Over the cached ``wide`` and ``pen`` cases of ``bench.bench_detect`` (both parts), every view is
+detected three ways: **defaults** (``DetectParams()``, as the benchmark measures); **scaled**
+(``params_for_scale(px/mm, job gap)``: the scales a job stating its gap gives, without the band
+limit); **job gap** (the same with ``limit_band``: what the cycle and ``detect --gap-mm`` now do).
+The job's gap is the scene's true gap times ``--range`` (default 0.5-1.5: a nominal gap with
++-50 %), px/mm the view's true gap in px over its gap in mm (the scale at the seam; the cycle
+uses ``fx / Z`` at the nominal centre). Views are scored by ``bench.detect_score`` and pairs
+located as ``bench.bench_detect`` does (no clipping), so the counts compare with its report.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from bench.bench_detect import _detect, _locate
+from bench.detect_cases import FULL, case_cached, load_case, plan, view_truth
+from bench.detect_score import score_view
+from controller.geometry.camera_model import default_camera
+from controller.vision.seam_scale import params_for_scale
+
+WAYS = ("defaults", "scaled", "job gap")
+
+
+def run_case(args: tuple[tuple[str, str, str, int], tuple[float, float]]) -> dict[str, Any]:
+    """One case's views detected the three ways, scored, and (pairs) located."""
+    case, (lo, hi) = args
+    cam = default_camera()
+    imgs, z = load_case(case)
+    row: dict[str, Any] = {"case": list(case), "family": str(z["family"])}
+    for way in WAYS:
+        views, curves, widths, kinds = [], [], [], []
+        for i, img in enumerate(imgs):
+            truth = view_truth(z, i)
+            truth["image_size"] = (img.shape[1], img.shape[0])
+            params = None
+            if way != "defaults":
+                g_mm = truth["gap_mm"]
+                params = params_for_scale(truth["gap_px"] / g_mm, (lo * g_mm, hi * g_mm),
+                                          limit_band=way == "job gap")
+            r = _detect("ours", img, cam, params)
+            if r["result"] == "returned":
+                said = r.pop("kinds")
+                r.update(score_view(r["points"], truth, said))
+                curves.append(r.pop("points"))
+                widths.append(r["width_px"])
+                kinds.append(tuple(said) if said and len(said) == 2 else None)
+            views.append({k: r.get(k) for k in ("result", "why", "confidence", "error")})
+        row[way] = {"views": views}
+        if len(imgs) == 2:
+            row[way]["pair"] = (_locate(z, curves, widths, kinds, cam)["result"]
+                                if len(curves) == 2 else "refused")
+    return row
+
+
+def summary(rows: list[dict[str, Any]], way: str) -> dict[str, int]:
+    """Counts of one way's views (found / wrong / refused) and pairs (located / wrong)."""
+    views = [v for r in rows for v in r[way]["views"]]
+    pairs = [r[way]["pair"] for r in rows if "pair" in r[way]]
+    out = {k: sum(v["result"] == k for v in views) for k in ("found", "wrong", "refused")}
+    out["views"] = len(views)
+    out.update(pairs=len(pairs), pairs_located=pairs.count("located"),
+               pairs_partial=pairs.count("partial"), pairs_wrong=pairs.count("wrong"))
+    out["refused_for_band"] = sum(v["result"] == "refused" and "dark band" in (v["error"] or "")
+                                  for v in views)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--range", type=float, nargs=2, default=(0.5, 1.5), metavar=("LO", "HI"),
+                    help="the job's gap as fractions of the scene's true gap")
+    ap.add_argument("--out", default="bench/out/detect_job_gap.json")
+    args = ap.parse_args(argv)
+    groups = plan(FULL, ["easy", "medium", "hard"], ["tuning", "heldout"], ["wide", "pen"])
+    cases = [c for g in groups.values() for c in g if case_cached(c)]
+    if not cases:
+        print("no cached renders: run `.venv/bin/python -m bench.bench_detect --render-only` "
+              "first", file=sys.stderr)
+        return 1
+    t0 = time.time()
+    with ProcessPoolExecutor(args.jobs) as ex:
+        rows = list(ex.map(run_case, [(c, tuple(args.range)) for c in cases], chunksize=4))
+    report: dict[str, Any] = {"range": list(args.range), "cases": len(cases),
+                              "time_s": time.time() - t0, "summary": {}}
+    for split in ("tuning", "heldout"):
+        for fam in ("all", "plain", "shop", "closeup"):
+            sel = [r for r in rows if r["case"][2] == split and fam in ("all", r["family"])]
+            report["summary"][f"{split}/{fam}"] = {w: summary(sel, w) for w in WAYS}
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps({**report, "rows": rows}, indent=1))
+    print(f"{len(cases)} cases in {report['time_s']:.0f} s; job gap = true gap x "
+          f"{args.range[0]:g}-{args.range[1]:g}")
+    print(f"{'part/look':18s} {'way':9s} {'views':>5s} {'found':>5s} {'wrong':>5s} "
+          f"{'band':>5s} {'pairs':>5s} {'loc':>4s} {'part':>4s} {'wrong':>5s}")
+    for key, by_way in report["summary"].items():
+        for w, s in by_way.items():
+            print(f"{key:18s} {w:9s} {s['views']:5d} {s['found']:5d} {s['wrong']:5d} "
+                  f"{s['refused_for_band']:5d} {s['pairs']:5d} {s['pairs_located']:4d} "
+                  f"{s['pairs_partial']:4d} {s['pairs_wrong']:5d}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
