@@ -2,7 +2,7 @@
 
 Usage (from the repository root; needs the cached renders of ``bench.bench_detect``)::
 
-    .venv/bin/python -m bench.bench_detect_job_gap [--jobs 2] [--range 0.5 1.5]
+    .venv/bin/python -m bench.bench_detect_job_gap [--jobs 2] [--range 0.5 1.5] [--cases N]
         [--out bench/out/detect_job_gap.json]
 
 Over the cached ``wide`` and ``pen`` cases of ``bench.bench_detect`` (both parts), every view is
@@ -83,10 +83,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--range", type=float, nargs=2, default=(0.5, 1.5), metavar=("LO", "HI"),
                     help="the job's gap as fractions of the scene's true gap")
+    ap.add_argument("--cases", type=int, help="only the first N cached cases (a quick look)")
     ap.add_argument("--out", default="bench/out/detect_job_gap.json")
     args = ap.parse_args(argv)
     groups = plan(FULL, ["easy", "medium", "hard"], ["tuning", "heldout"], ["wide", "pen"])
-    cases = [c for g in groups.values() for c in g if case_cached(c)]
+    cases = [c for g in groups.values() for c in g if case_cached(c)][:args.cases]
     if not cases:
         print("no cached renders: run `.venv/bin/python -m bench.bench_detect --render-only` "
               "first", file=sys.stderr)

@@ -10,7 +10,7 @@ def test_one_rendered_pair_is_detected_three_ways_and_counted(monkeypatch, tmp_p
     case = detect_cases.case_list("wide", "easy", "tuning", 1)[0]
     assert detect_cases.render_case(case) == "rendered"
     out = tmp_path / "r.json"
-    assert bench_detect_job_gap.main(["--jobs", "1", "--out", str(out)]) == 0
+    assert bench_detect_job_gap.main(["--jobs", "1", "--cases", "1", "--out", str(out)]) == 0
     rep = json.loads(out.read_text())
     assert rep["cases"] == 1 and rep["range"] == [0.5, 1.5]
     for way in bench_detect_job_gap.WAYS:
