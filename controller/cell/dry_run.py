@@ -97,7 +97,10 @@ def view_joints(scene: Any, cell: Any, n: int = 2, near: tuple[float, ...] = HOM
 def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False,
                 views: list[dict[str, Any]] | None = None,
                 timeouts: dict[str, float] | None = None, clip_unseen_ends: bool = False) -> Job:
-    """A job for the simulated scene: the views, the nominal seam region and normal, defaults.
+    """A job for the simulated scene: the views, the nominal seam region and normal, the gap.
+
+    The gap is stated as a drawing would give it, the scene's gap +-50 % (the detector's scales
+    and the widest dark band it takes for the gap follow: docs/job-file.md).
 
     ``views`` replaces the views made from ``joints`` (e.g. fixed cameras' views by name).
     """
@@ -114,7 +117,8 @@ def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False,
         "seam": {"nominal_centre_mm": [round(float(v), 3) for v in centre],
                  "nominal_radius_mm": float(region["radius_mm"]) + 20.0,
                  "normal": [round(float(v), 6) for v in scene.surface_normal],
-                 "clip_unseen_ends": clip_unseen_ends},
+                 "clip_unseen_ends": clip_unseen_ends,
+                 "gap_mm": [round(0.5 * scene.gap_mm, 3), round(1.5 * scene.gap_mm, 3)]},
         "weld": {"confirm": confirm},
     }
     if timeouts:
