@@ -17,8 +17,8 @@ from controller.cell.job import TimeoutsSpec
 pytestmark = pytest.mark.slow
 
 
-def run(tmp_path, clip, scene="open_ends"):
-    with SimRig(scene_kind=scene, seed=2, speedup=200.0, clip_unseen_ends=clip) as rig:
+def run(tmp_path, clip, scene="open_ends", seed=2):
+    with SimRig(scene_kind=scene, seed=seed, speedup=200.0, clip_unseen_ends=clip) as rig:
         rig.job = dataclasses.replace(rig.job, timeouts=TimeoutsSpec(
             capture_s=600.0, locate_s=600.0, plan_s=600.0))
         cycle = rig.cycle(tmp_path)
@@ -43,3 +43,14 @@ def test_open_ends_clipped_or_refused(tmp_path, clip, scene):
         assert "no view sees where the seam ends" in r.reason and "clip_unseen_ends" in r.reason
         assert doc["details"]["error"] == "TriangulationError"
         assert rep.arc_on_after is False and welds == []
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "known wrong weld (2026-12-04): seam_shadow.split_shadow (since 5f0beca) takes the lit cut "
+    "face seen inside this gap for a shadow beside it and returns the darker floor's middle; "
+    "both views shift alike, the stereo checks pass, and the seam is welded 1.1 mm RMS off "
+    "(0.07 mm with the split off). README, 'Seams whose ends no view sees'; note on issue 13"))
+def test_open_ends_seed_3_lands_within_a_fraction_of_a_millimetre(tmp_path):
+    rep, welds = run(tmp_path, True, "open_ends", seed=3)
+    assert rep.result.status == "done", rep.result.reason
+    assert rep.seam_rms_mm <= 0.2 and len(welds) == 1
