@@ -32,6 +32,9 @@ def test_the_band_limit_is_set_only_on_the_jobs_word():
     band = (1 + SHADOW_SHARE) * 0.6 * s + BLUR_PX
     assert params_for_scale(s, (0.3, 0.6), limit_band=True).max_band_px == pytest.approx(band)
     assert params_for_scale(s, (0.3, 0.6)).max_band_px == 0.0  # a range alone: no limit
+    # The narrowest gap, for the shadow split (a core narrower is a floor beside a cut face).
+    assert params_for_scale(s, (0.3, 0.6), limit_band=True).min_gap_px == pytest.approx(1.8)
+    assert params_for_scale(s, (0.3, 0.6)).min_gap_px == 0.0
 
 
 @pytest.mark.parametrize("side", [-1, 1])

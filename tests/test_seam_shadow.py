@@ -108,3 +108,23 @@ def test_split_needs_a_consistent_core_along_the_seam():
     before = fit_of(np.vstack([left, right]))
     mixed, st = split_shadow(before, p)  # cores on both sides: not a shadow along the seam
     assert st["shadow_split"] == 0.0 and np.all(mixed["centre"] == before["centre"])
+
+
+def test_a_core_narrower_than_the_jobs_narrowest_gap_is_not_split_off():
+    # A 3 px core beside a 9 px lighter band: a gap beside a shadow, or the floor beside a cut
+    # face seen inside a 12 px gap; one view cannot tell. The job's narrowest gap decides: 4 px
+    # (wider than the core) keeps the band whole; 2 px lets the core be the gap.
+    from dataclasses import replace
+
+    x, left, _ = _profiles(True, n=40)
+    p = DetectParams()
+    two, rms = _fit_profiles(x, left, p.fit_iterations)
+    fit = {"valid": np.ones(len(left), bool), "params": two, "profiles": left, "rms": rms,
+           "centre": np.column_stack([two[:, 3], np.zeros(len(left))]),
+           "width": two[:, 4].copy(), "normal": np.tile([1.0, 0.0], (len(left), 1))}
+    kept, st = split_shadow(fit, replace(p, min_gap_px=4.0))
+    assert st["shadow_split"] == 0.0 and st["shadow_core_under_job_gap"] == 1.0
+    assert np.all(kept["centre"] == fit["centre"]) and np.all(kept["width"] == fit["width"])
+    split, st = split_shadow(fit, replace(p, min_gap_px=2.0))
+    assert st["shadow_split"] == 1.0
+    assert np.median(np.abs(split["centre"][:, 0] + 2.5)) < 0.2

@@ -60,7 +60,10 @@ class DetectParams:
     ``max_band_px``: widest dark band (median over the seam, px) taken for the gap (0: no limit).
     Set only where the job states its gap (:func:`controller.vision.seam_scale.params_for_scale`
     with ``limit_band``): a band wider than that gap can be is the gap and a shadow or a mark
-    beside it, whose middle is off the gap's, and is refused, not returned.
+    beside it, whose middle is off the gap's, and is refused, not returned. ``min_gap_px``:
+    the job's narrowest gap (px, 0: not stated); a darker core narrower than that inside the
+    band is the floor beside a cut face, not the gap beside a shadow
+    (:mod:`controller.vision.seam_shadow`).
     """
 
     gamma: float = 2.2
@@ -86,6 +89,7 @@ class DetectParams:
     straight_px: float = 2.5
     pattern_offset_px: float = 200.0
     max_band_px: float = 0.0
+    min_gap_px: float = 0.0
 
 
 @dataclass

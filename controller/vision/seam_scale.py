@@ -90,7 +90,10 @@ def params_for_scale(px_per_mm: float, gap_mm: ArrayLike = DEFAULT_GAP_MM, *,
       states its gap: a band wider than ``b`` is a shadow or a mark beside the gap, and its
       middle is not the gap's), else ``base``'s (0: no limit). Only this narrows what the
       defaults accept, and only on the job's word: a gap range left at the default
-      does not limit the band (a wide gap is still found by the valley paths).
+      does not limit the band (a wide gap is still found by the valley paths);
+    - ``min_gap_px`` (the narrowest gap) = ``gap_mm[0] * px_per_mm`` when ``limit_band``, else
+      ``base``'s: a darker core narrower than that inside a dark band is the floor beside a
+      cut face seen in the gap, not a gap beside a shadow (:mod:`seam_shadow` keeps the band).
 
     Everything else is ``base``'s (the defaults' noise floors: depth, fit, confidence). While
     ``w <= 11.2`` px (the default 1.2 mm gap at up to 9.3 px/mm: fx 2840 px from 305 mm on) the
@@ -105,7 +108,7 @@ def params_for_scale(px_per_mm: float, gap_mm: ArrayLike = DEFAULT_GAP_MM, *,
     if not math.isfinite(s) or s <= 0:
         raise InputError(f"px_per_mm = {px_per_mm!r}: must be a positive number (fx / working "
                          "distance in mm)")
-    _, hi = check_gap_mm(gap_mm)
+    lo, hi = check_gap_mm(gap_mm)
     band = (1.0 + SHADOW_SHARE) * hi * s + BLUR_PX
     min_length = p.min_length_px
     if seam_length_px is not None:
@@ -120,7 +123,8 @@ def params_for_scale(px_per_mm: float, gap_mm: ArrayLike = DEFAULT_GAP_MM, *,
                    min_length_px=min_length,
                    piece_length_px=min(p.piece_length_px, min_length),
                    pattern_offset_px=max(p.pattern_offset_px, GRID_PITCH_MM * s),
-                   max_band_px=band if limit_band else p.max_band_px)
+                   max_band_px=band if limit_band else p.max_band_px,
+                   min_gap_px=lo * s if limit_band else p.min_gap_px)
 
 
 def px_per_mm_at(fx_px: float, T_base_cam: ArrayLike, point_mm: ArrayLike) -> float | None:

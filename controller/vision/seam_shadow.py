@@ -19,6 +19,8 @@ the lighter band beside it is not part of the gap.
 What it cannot tell: a lit cut face inside a wide gap (the far sheet's edge seen through it) looks
 the same in one view, a lighter band beside a darker floor; the rule that the core is at most
 :data:`MAX_CORE_SHARE` of the band keeps most of those whole, not all (README, seam vision).
+Where the job states its gap (``DetectParams.min_gap_px``), a core narrower than the narrowest
+gap is such a floor, and the band is kept whole.
 """
 
 from __future__ import annotations
@@ -151,6 +153,12 @@ def split_shadow(fit: dict[str, Any], p: DetectParams) -> tuple[dict[str, Any], 
     stats["shadow_core_step"] = float(np.median(step[same])) if same.any() else 0.0
     stats["shadow_f"] = float(np.median(F_stat[same])) if same.any() else 0.0
     stats["shadow_core_share"] = float(np.median(core_w[ok] / band_w[ok])) if ok.any() else 1.0
+    core_med = float(np.median(core_w[ok])) if ok.any() else 0.0
+    if p.min_gap_px > 0 and core_med < p.min_gap_px:
+        # Narrower than the job's narrowest gap: the core is not the gap but the floor beside a
+        # cut face seen inside it (which one view cannot tell from a shadow); the band is the gap.
+        stats["shadow_core_under_job_gap"] = 1.0
+        return fit, stats
     if (same.mean() < MIN_SAME_SIDE or stats["shadow_core_step"] < MIN_CORE_STEP
             or stats["shadow_f"] < MIN_F or stats["shadow_core_share"] > MAX_CORE_SHARE
             or ok.sum() < 4):
