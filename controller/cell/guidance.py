@@ -65,8 +65,9 @@ class GuidanceSettings:
     ``clip_unseen_ends``: an end no view saw is cut at the nominal region (the job allows it);
     ``gap_mm``: the expected gap (narrowest, widest, mm) that, with each view's working distance
     to the nominal centre, sets the detector's pixel scales and the widest dark band taken for
-    the gap (:func:`view_params`); None (the job does not say): the scales of
-    :data:`~controller.vision.seam_scale.DEFAULT_GAP_MM` and no limit on the band.
+    the gap, and the narrowest core split off a band as the gap (:func:`view_params`); None
+    (the job does not say): the scales of
+    :data:`~controller.vision.seam_scale.DEFAULT_GAP_MM` and neither limit.
     """
 
     quality: QualityLimits = QualityLimits()

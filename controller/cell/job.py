@@ -71,8 +71,9 @@ class SeamSpec:
     clip_unseen_ends: bool = False
     #: The narrowest and the widest gap expected between the sheets (mm): with the working
     #: distance, sets the detector's pixel scales (controller.vision.seam_scale), and a dark band
-    #: wider than this gap can make is refused. None (not stated): the scales of
-    #: DEFAULT_GAP_MM and no limit on the band.
+    #: wider than this gap can make is refused, and a darker core narrower than its narrowest
+    #: is not taken for the gap beside a shadow. None (not stated): the scales of
+    #: DEFAULT_GAP_MM and neither rule.
     gap_mm: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:

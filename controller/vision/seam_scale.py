@@ -11,7 +11,8 @@ defaults reject as noise at their own distance is still rejected; only the short
 shrinks, down to :data:`MIN_LENGTH_FLOOR_PX`, when the whole seam is short in the image. One
 exception, on the job's word: where the job states its gap, a dark band wider than that gap, a
 shadow and blur can make it is refused (``max_band_px``): it is the gap with a shadow or a mark
-beside it, and its middle is off the gap's.
+beside it, and its middle is off the gap's; and a darker core narrower than its narrowest gap
+is not split off as a gap beside a shadow (``min_gap_px``).
 """
 
 from __future__ import annotations

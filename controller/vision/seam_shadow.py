@@ -153,8 +153,7 @@ def split_shadow(fit: dict[str, Any], p: DetectParams) -> tuple[dict[str, Any], 
     stats["shadow_core_step"] = float(np.median(step[same])) if same.any() else 0.0
     stats["shadow_f"] = float(np.median(F_stat[same])) if same.any() else 0.0
     stats["shadow_core_share"] = float(np.median(core_w[ok] / band_w[ok])) if ok.any() else 1.0
-    core_med = float(np.median(core_w[ok])) if ok.any() else 0.0
-    if p.min_gap_px > 0 and core_med < p.min_gap_px:
+    if p.min_gap_px > 0 and ok.any() and float(np.median(core_w[ok])) < p.min_gap_px:
         # Narrower than the job's narrowest gap: the core is not the gap but the floor beside a
         # cut face seen inside it (which one view cannot tell from a shadow); the band is the gap.
         stats["shadow_core_under_job_gap"] = 1.0
