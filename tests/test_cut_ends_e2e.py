@@ -17,9 +17,11 @@ from controller.cell.job import TimeoutsSpec
 pytestmark = pytest.mark.slow
 
 
-def run(tmp_path, clip, scene="open_ends", seed=2):
+def run(tmp_path, clip, scene="open_ends", seed=2, gap_stated=True):
     with SimRig(scene_kind=scene, seed=seed, speedup=200.0, clip_unseen_ends=clip) as rig:
-        rig.job = dataclasses.replace(rig.job, timeouts=TimeoutsSpec(
+        # The dry-run job states the scene's gap; ``gap_stated=False``: a job that does not.
+        seam = rig.job.seam if gap_stated else dataclasses.replace(rig.job.seam, gap_mm=None)
+        rig.job = dataclasses.replace(rig.job, seam=seam, timeouts=TimeoutsSpec(
             capture_s=600.0, locate_s=600.0, plan_s=600.0))
         cycle = rig.cycle(tmp_path)
         rep = rig.report(cycle.run(), cycle)
@@ -45,24 +47,12 @@ def test_open_ends_clipped_or_refused(tmp_path, clip, scene):
         assert rep.arc_on_after is False and welds == []
 
 
-
-def run_seed3(tmp_path, gap_stated):
-    with SimRig(scene_kind="open_ends", seed=3, speedup=200.0, clip_unseen_ends=True) as rig:
-        seam = rig.job.seam if gap_stated else dataclasses.replace(rig.job.seam, gap_mm=None)
-        rig.job = dataclasses.replace(rig.job, seam=seam, timeouts=TimeoutsSpec(
-            capture_s=600.0, locate_s=600.0, plan_s=600.0))
-        cycle = rig.cycle(tmp_path)
-        rep = rig.report(cycle.run(), cycle)
-        welds = [e for e in rig.mock.executed if e["kind"] == "weld"]
-    return rep, welds
-
-
 def test_open_ends_seed_3_with_the_jobs_gap_lands_within_a_fraction_of_a_millimetre(tmp_path):
     # The far sheet's cut face shows inside the gap: a lighter band beside the darker floor,
     # which the shadow split took for a shadow beside the gap (1.16 mm RMS off). The job's
     # narrowest gap (the dry run states the scene's gap +-50 %) is wider than that floor: the
     # band is kept whole (seam_shadow, DetectParams.min_gap_px).
-    rep, welds = run_seed3(tmp_path, gap_stated=True)
+    rep, welds = run(tmp_path, True, seed=3)
     assert rep.result.status == "done", rep.result.reason
     assert rep.seam_rms_mm <= 0.2 and len(welds) == 1
 
@@ -73,6 +63,6 @@ def test_open_ends_seed_3_with_the_jobs_gap_lands_within_a_fraction_of_a_millime
     "the darker floor's middle; both views shift alike, the stereo checks pass, and the seam is "
     "welded 1.16 mm RMS off. README, 'Seams whose ends no view sees'; note on issue 13"))
 def test_open_ends_seed_3_without_the_jobs_gap_lands_within_a_fraction_of_a_millimetre(tmp_path):
-    rep, welds = run_seed3(tmp_path, gap_stated=False)
+    rep, welds = run(tmp_path, True, seed=3, gap_stated=False)
     assert rep.result.status == "done", rep.result.reason
     assert rep.seam_rms_mm <= 0.2 and len(welds) == 1

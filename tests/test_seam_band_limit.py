@@ -69,10 +69,9 @@ def test_the_cycle_limits_the_band_only_when_the_job_states_the_gap():
     centre = (0.0, 0.0, 400.0)
     unsaid = GuidanceSettings(nominal_centre_mm=centre, nominal_radius_mm=100.0)
     said = GuidanceSettings(nominal_centre_mm=centre, nominal_radius_mm=100.0, gap_mm=(0.2, 0.5))
-    cam = CAM
-    assert view_params(cam, T, unsaid).max_band_px == 0.0
-    s = cam.fx / 400.0
-    assert view_params(cam, T, said).max_band_px == pytest.approx(
+    assert view_params(CAM, T, unsaid).max_band_px == 0.0
+    s = CAM.fx / 400.0
+    assert view_params(CAM, T, said).max_band_px == pytest.approx(
         (1 + SHADOW_SHARE) * 0.5 * s + BLUR_PX)
 
 
