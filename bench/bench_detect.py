@@ -81,10 +81,12 @@ def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None) -> dict[st
             pts, conf, kinds = det.points_px, float(det.confidence), end_kinds_of(det)
             width: float | None = det.gap_width_px
             way = str(det.stats.get("way", ""))
+            band = None if det.band_px is None else (det.band_px, det.band_width_px)
             stats: dict[str, Any] = {k: v for k, v in det.stats.items() if k != "way"}
             stats["ends_px"] = np.round(det.endpoints_px, 1).tolist()
         else:
             pts, conf, kinds, width, way = published_detect(img), 1.0, None, None, ""
+            band = None
             stats = {}
     except SeamguideError as err:
         return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:600]}",
@@ -93,7 +95,7 @@ def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None) -> dict[st
         return {"result": "crash", "error": f"{type(err).__name__}: {str(err)[:600]}",
                 "time_s": time.perf_counter() - t0}
     return {"result": "returned", "points": pts, "confidence": conf, "kinds": kinds,
-            "width_px": width, "way": way, "stats": stats,
+            "width_px": width, "way": way, "stats": stats, "band": band,
             "time_s": time.perf_counter() - t0}
 
 
@@ -106,6 +108,7 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
     curves: list[np.ndarray] = []
     widths: list[float | None] = []
     kinds: list[tuple[str, str] | None] = []
+    bands: list[tuple[np.ndarray, float] | None] = []
     for i, img in enumerate(imgs):
         truth = view_truth(z, i)
         truth["image_size"] = (img.shape[1], img.shape[0])
@@ -119,19 +122,22 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
                 if name == "ours":
                     curves.append(r["points"])
                     widths.append(r["width_px"])
+                    bands.append(r["band"])
                     kinds.append(tuple(said) if said and len(said) == 2 else None)
                 r.pop("points")
             r.pop("width_px", None)
+            if r.pop("band", None) is not None:
+                r["split"] = True  # a shadow split off: the whole band's reading came along
             v[name] = r
         row["views"].append(v)
     if len(imgs) == 2:
-        row["pair"] = (_locate(z, curves, widths, kinds, cam) if len(curves) == 2
+        row["pair"] = (_locate(z, curves, widths, kinds, cam, bands=bands) if len(curves) == 2
                        else {"result": "refused"})
         row["pair"]["ends_seen"] = all(k == "joint_end" for v in row["views"]
                                        for k in v["end_kinds"])
         # The same pair with a job that lets the seam be clipped to its nominal region where no
         # view sees an end ([seam] clip_unseen_ends): how long seams are welded.
-        row["pair_clip"] = (_locate(z, curves, widths, kinds, cam, clip=True)
+        row["pair_clip"] = (_locate(z, curves, widths, kinds, cam, clip=True, bands=bands)
                             if len(curves) == 2 else {"result": "refused"})
     return row
 
@@ -159,21 +165,26 @@ def scene_features(case: tuple[str, str, str, int]) -> dict[str, Any]:
 
 
 def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | None],
-            kinds: list[tuple[str, str] | None], cam: Any, clip: bool = False) -> dict[str, Any]:
-    # As the cycle locates (controller/cell/guidance.py): with each view's end kinds and width;
-    # ``clip``: the job allows clipping ends no view sees to its nominal region.
+            kinds: list[tuple[str, str] | None], cam: Any, clip: bool = False,
+            bands: list[tuple[np.ndarray, float] | None] | None = None) -> dict[str, Any]:
+    # As the cycle locates (controller/cell/guidance.py): with each view's end kinds, width and
+    # split-off band (``bands``: (band_px, width px) or None per view); ``clip``: the job allows
+    # clipping ends no view sees to its nominal region.
     both = np.intersect1d(z["seam_index0"], z["seam_index1"])
     truth = z["seam_points_mm"][both]
-    views = [ViewObservation(cam, z[f"T{i}"], c, f"view{i + 1}", k, w)
-             for i, (c, w, k) in enumerate(zip(curves, widths, kinds, strict=True))]
+    bands = bands or [None] * len(curves)
+    views = [ViewObservation(cam, z[f"T{i}"], c, f"view{i + 1}", k, w,
+                             None if b is None else b[0], None if b is None else b[1])
+             for i, (c, w, k, b) in enumerate(zip(curves, widths, kinds, bands, strict=True))]
     t0 = time.perf_counter()
     try:
-        P3 = locate_seam(views, nominal_region=(np.asarray(z["centre_mm"]),
-                                                float(z["radius_mm"]) + 20.0),
-                         clip_unseen_ends=clip).dense_points_mm
+        seam = locate_seam(views, nominal_region=(np.asarray(z["centre_mm"]),
+                                                  float(z["radius_mm"]) + 20.0),
+                           clip_unseen_ends=clip)
     except SeamguideError as err:
         return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:600]}"}
     dt = time.perf_counter() - t0
+    P3 = seam.dense_points_mm
     if len(truth) < 2:
         return {"result": "wrong", "why": "no common seam in view", "time_s": dt}
     d = PolylineDistance(truth)(P3)
@@ -183,7 +194,7 @@ def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | No
     res = "located" if d.max() <= 0.5 and cov >= 0.9 else (
         "partial" if d.max() <= 1.0 else "wrong")
     return {"result": res, "rms_mm": float(np.sqrt(np.mean(d**2))), "max_mm": float(d.max()),
-            "coverage": cov, "time_s": dt}
+            "coverage": cov, "time_s": dt, "band_reading": seam.quality.get("band_reading")}
 
 
 def summarise(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
@@ -197,6 +208,7 @@ def summarise(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
     out["found_end_at_border"] = sum(v["result"] == "found" and v.get("kind_near_border", 0) > 0
                                      for v in views)
     out["wrong_why"] = sorted({v.get("why", "") for v in views if v["result"] == "wrong"})
+    out["split"] = sum(bool(v.get("split")) for v in views)
     pairs = [r["pair"] for r in rows if "pair" in r]
     if name == "ours" and pairs:
         out["pairs"] = len(pairs)
@@ -205,6 +217,9 @@ def summarise(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
         seen = [p for p in pairs if p["ends_seen"]]
         out["pairs_ends_seen"] = len(seen)
         out["pairs_ends_seen_located"] = sum(p["result"] == "located" for p in seen)
+        # Pairs with both views split, by the reading the views agreed on (stereo.band_check).
+        read = [str((p.get("band_reading") or {}).get("reading")) for p in pairs]
+        out["pairs_band_read"] = {k: read.count(k) for k in sorted(set(read)) if k != "None"}
         rms = [p["rms_mm"] for p in pairs if p["result"] == "located"]
         out["pairs_rms_mm_median"] = float(np.median(rms)) if rms else None
         clip = [r["pair_clip"] for r in rows if "pair_clip" in r]  # reports before 2026-12-03
@@ -467,6 +482,13 @@ def markdown(rep: dict[str, Any]) -> str:
                          f"{x['pairs_partial']} | {x['pairs_wrong']} | {x['pairs_refused']} | "
                          f"{_pct(x['pairs_ends_seen_located'], x['pairs_ends_seen'])} | {rms} | "
                          f"{_clip_cell(x)} |")
+    split = {k: (s["ours"].get("split", 0), s["ours"].get("pairs_band_read", {}))
+             for k, s in rep["summary"].items() if s["ours"].get("split")}
+    if split:
+        lines += ["", "Shadow splits (ours): views whose dark band was split into gap and shadow; "
+                  "pairs with both views split, by the reading the two views agreed on "
+                  "(core: a shadow beside the gap; band: a cut face inside it): " + "; ".join(
+                      f"{k} {n} views, pairs {r or '-'}" for k, (n, r) in split.items()) + "."]
     lines += ["", "Reliability (ours, single views of the wide and pen sets): share of returned "
               "seams found per confidence bin.", "",
               "| confidence | " + " | ".join(rep["reliability"]) + " |",

@@ -41,7 +41,7 @@ def run_case(args: tuple[tuple[str, str, str, int], tuple[float, float]]) -> dic
     imgs, z = load_case(case)
     row: dict[str, Any] = {"case": list(case), "family": str(z["family"])}
     for way in WAYS:
-        views, curves, widths, kinds = [], [], [], []
+        views, curves, widths, kinds, bands = [], [], [], [], []
         for i, img in enumerate(imgs):
             truth = view_truth(z, i)
             truth["image_size"] = (img.shape[1], img.shape[0])
@@ -56,11 +56,12 @@ def run_case(args: tuple[tuple[str, str, str, int], tuple[float, float]]) -> dic
                 r.update(score_view(r["points"], truth, said))
                 curves.append(r.pop("points"))
                 widths.append(r["width_px"])
+                bands.append(r["band"])
                 kinds.append(tuple(said) if said and len(said) == 2 else None)
             views.append({k: r.get(k) for k in ("result", "why", "confidence", "error")})
         row[way] = {"views": views}
         if len(imgs) == 2:
-            row[way]["pair"] = (_locate(z, curves, widths, kinds, cam)["result"]
+            row[way]["pair"] = (_locate(z, curves, widths, kinds, cam, bands=bands)["result"]
                                 if len(curves) == 2 else "refused")
     return row
 

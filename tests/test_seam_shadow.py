@@ -4,6 +4,8 @@ Rendered lopsided gaps (drivers/sim/sim_gap.py: a plate edge standing higher cas
 side of the gap) with the exact truth of the renderer, and the profile model on its own.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 from sim_looks import NEUTRAL
@@ -46,6 +48,11 @@ def test_the_centre_is_the_gap_not_the_gap_and_its_shadow(side):
     assert abs(np.median(off)) < 0.8, np.median(off)
     assert np.percentile(np.abs(off), 95) < 1.5
     assert np.median(det.width_px) < 0.6 * (r.gap_px + 9.0)
+    # The whole band's reading comes along for the stereo stage (controller.stereo.band_check):
+    # its middle lies on the shadow's side, about half the shadow's width off the gap's.
+    band = signed_offsets(dataclasses.replace(det, points_px=det.band_px), r.seam_px)[10:-10]
+    assert 3.0 < -side * np.median(band) < 6.0  # step_side +1 puts the shadow at -n here
+    assert det.band_width_px > np.median(det.width_px) + 4.0
 
 
 def test_a_symmetric_wide_gap_is_not_split():
@@ -58,6 +65,8 @@ def test_a_symmetric_wide_gap_is_not_split():
     off = signed_offsets(det, r.seam_px)[10:-10]
     assert abs(np.median(off)) < 0.3
     assert abs(np.median(det.width_px) - r.gap_px) < 0.25 * r.gap_px
+    assert det.band_px is None and det.band_width_px is None
+    assert det.to_dict()["band_px"] is None
 
 
 def _profiles(core_left, n=40, noise=0.004, seed=0):

@@ -195,7 +195,8 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
 
     ``on_detections`` gets the detections before the seam is located (records, overlays: they
     are kept when locating fails); ``note`` is told ``view_layout_warning=...`` about views
-    rolled alike (also logged) and ``seam_ends=...``, how each end of the seam was seen;
+    rolled alike (also logged), ``seam_ends=...``, how each end of the seam was seen, and
+    ``band_reading=...`` where every view split a shadow off the gap (which reading was kept);
     ``check`` runs between the steps (timeouts, aborts). Raises :class:`SeamguideError`
     subclasses: seam not found or ambiguous in a view, triangulation quality, seam outside the
     nominal region.
@@ -212,7 +213,9 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
         check()
     observations = [ViewObservation(v.camera, v.T_base_cam, d.points_px, v.name,
                                     getattr(d, "end_kinds", None),
-                                    getattr(d, "gap_width_px", None))
+                                    getattr(d, "gap_width_px", None),
+                                    getattr(d, "band_px", None),
+                                    getattr(d, "band_width_px", None))
                     for v, d in zip(views, detections, strict=True)]
     seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
                        count=settings.count, nominal_region=settings.nominal_region,
@@ -223,8 +226,13 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
         log.warning("seam %s", "; ".join(
             f"{e['end']} not seen by any view ({'; '.join(e['not_seen'])}): clipped to the "
             f"nominal region ({e['clipped_mm']:.1f} mm cut)" for e in clipped))
+    band = seam.quality.get("band_reading")
+    if band is not None and band["reading"] == "band":
+        log.info("the lighter part of the dark band beside the gap is a cut face inside it, not "
+                 "a shadow (the two readings lie %.2f mm apart along the sheet normal): the seam "
+                 "is the whole band's middle", band["along_normal_mm"])
     if note is not None:
-        note(seam_ends=ends)
+        note(seam_ends=ends, **({} if band is None else {"band_reading": band}))
     return Located(seam, list(detections), observations, warning)
 
 

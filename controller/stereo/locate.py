@@ -14,10 +14,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.errors import InputError, TriangulationError
-from controller.geometry.camera_model import CameraModel
+from controller.errors import TriangulationError
 from controller.geometry.poses import invert, transform_points
-from controller.stereo.epipolar import match_curves, point_on_polyline, relative_pose
+from controller.stereo.band_check import band_or_core
+from controller.stereo.match_views import ViewObservation, triangulate_views
 from controller.stereo.seam_curve import arc_length, resample_curve, smooth_curve
 from controller.stereo.seam_ends import (
     clip_to_region,
@@ -25,24 +25,11 @@ from controller.stereo.seam_ends import (
     unseen_ends_problem,
     view_end_cut,
 )
-from controller.stereo.triangulate import PolylineDistance, resample_polyline, triangulate_rays
+from controller.stereo.triangulate import PolylineDistance
+
+__all__ = ["QualityLimits", "Seam3D", "ViewObservation", "locate_seam", "gap_width_mm"]
 
 F64 = NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class ViewObservation:
-    """One view of the seam: camera, its pose in the base frame, the detected curve (px)."""
-
-    camera: CameraModel
-    T_base_cam: F64
-    seam_px: F64
-    name: str = "view"
-    #: What each end of ``seam_px`` is (first point first): ``joint_end`` (a real end of the
-    #: joint) or ``image_border`` (the seam leaves the image); None: judged by the border margin.
-    end_kinds: tuple[str, str] | None = None
-    #: The detected gap's median width (px), when the detector measured it; None: not checked.
-    gap_width_px: float | None = None
 
 
 @dataclass(frozen=True)
@@ -79,16 +66,6 @@ class Seam3D:
         return float(arc_length(self.dense_points_mm)[-1])
 
 
-def _check_observation(obs: ViewObservation, i: int) -> F64:
-    px = np.asarray(obs.seam_px, dtype=np.float64)
-    if px.ndim != 2 or px.shape[1] != 2 or len(px) < 2:
-        raise InputError(f"{obs.name}: seam_px must be an ordered list of at least two [u, v] "
-                         f"points, got shape {px.shape}")
-    if not np.all(np.isfinite(px)):
-        raise InputError(f"{obs.name}: seam_px holds non-finite values")
-    return px
-
-
 def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
     """Index ranges [start, stop) of consecutive True values."""
     d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
@@ -121,37 +98,11 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     triangulated seam along the other view's rays by a millimetre without tripping the
     reprojection limits.
     """
-    if len(views) < 2:
-        raise InputError(f"locating a seam needs at least two views, got {len(views)}")
-    curves = [_check_observation(v, i) for i, v in enumerate(views)]
-    ref_px = resample_polyline(curves[0], sample_px)
-    n = len(ref_px)
-    normalized = [views[0].camera.pixels_to_normalized(ref_px)]
-    normalized += [v.camera.pixels_to_normalized(c) for v, c in zip(views[1:], curves[1:],
-                                                                     strict=True)]
-    V = len(views)
-    origins = np.zeros((V, 3))
-    dirs = np.full((V, n, 3), np.nan)
-    valid = np.zeros((V, n), dtype=bool)
-    degenerate_any = np.zeros(n, dtype=bool)
-    matched_any = np.zeros(n, dtype=bool)
+    views, band_reading = band_or_core(views, limits.min_angle_deg, sample_px)
+    tri = triangulate_views(views, limits.min_angle_deg, sample_px)
+    curves, ref_px, X, rms_gap, angle = tri.curves, tri.ref_px, tri.X, tri.rms_gap, tri.angle
+    degenerate_any, n, V = tri.degenerate, len(tri.ref_px), len(views)
     T0 = np.asarray(views[0].T_base_cam, dtype=np.float64)
-    origins[0], dirs[0] = views[0].camera.pixel_rays(ref_px, T0)
-    valid[0] = True
-    for k in range(1, V):
-        Tk = np.asarray(views[k].T_base_cam, dtype=np.float64)
-        m = match_curves(normalized[0], normalized[k], relative_pose(T0, Tk), limits.min_angle_deg)
-        good = np.isfinite(m.t) & ~m.degenerate
-        xy = point_on_polyline(normalized[k], m.t)
-        origins[k] = Tk[:3, 3]
-        d = np.column_stack([xy, np.ones(n)])
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        dirs[k] = d @ Tk[:3, :3].T
-        valid[k] = good
-        degenerate_any |= m.degenerate
-        matched_any |= np.isfinite(m.t)
-    valid[0] = valid[1:].any(axis=0)
-    X, rms_gap, angle = triangulate_rays(origins, dirs, valid)
     ok = np.isfinite(X[:, 0])
     details: dict[str, Any] = {"views": [v.name for v in views]}
     if ok.sum() < 5 and degenerate_any.sum() >= 5:
@@ -209,6 +160,8 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         "length_mm": float(arc_length(dense)[-1]),
         "gap_width_mm": [gap_width_mm(v, dense) for v in views],
     }
+    if band_reading is not None:
+        quality["band_reading"] = band_reading
     if nominal_region is not None:
         centre = np.asarray(nominal_region[0], dtype=np.float64)
         quality["distance_from_nominal_mm_max"] = float(

@@ -28,6 +28,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     Where an end is a covered patch (a tack weld: the gap goes on beyond it) the candidate is
     extended to the gap beyond and refined again (``crossed``: patches crossed so far).
     """
+    c.band_points, c.band_width = None, None
     pts, nrm = resample(c.polyline, p.step_px, extend=24.0)
     fit = fit_at(grey, lut, pts, nrm, p)
     # The coarse search loses a faint stretch of the gap (thin, blurred, low contrast); the
@@ -35,6 +36,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     fit = track_on(grey, lut, fit, p, at_end=True)
     fit = track_on(grey, lut, fit, p, at_end=False)
     # A shadow band beside the gap widens the dark band to one side: the gap is its darker core.
+    band_fit = fit
     fit, shadow = split_shadow(fit, p)
     c.stats.update(shadow)
     valid = fit["valid"]
@@ -63,6 +65,11 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     sel, ok = sel[kept[0]:kept[-1] + 1], ok[kept[0]:kept[-1] + 1]
     pts_run = fit["centre"][sel].copy()
     t = np.arange(len(sel), dtype=np.float64)
+    # Split off a shadow: how far the core's centre lies from the whole band's, per sample, to
+    # give the band's centreline too (one view cannot tell a shadow from a cut face in the gap;
+    # two can: controller.stereo.band_check).
+    split = bool(shadow.get("shadow_split"))
+    shift = (fit["centre"][sel] - band_fit["centre"][sel]) if split else None
     if (~ok).any():
         # Bridged samples (a hole in the gap) follow a cubic through the measured ones; across a
         # long hole (a tack weld) a quadratic fitted to the gap on both sides (an interpolating
@@ -81,6 +88,10 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
             pts_run = _bridge_long_holes(t, pts_run, good, long=int(round(40.0 / p.step_px)),
                                          reach=int(round(160.0 / p.step_px)))
         pts_run = savgol_filter(pts_run, win, 2, axis=0, mode="interp")
+    if shift is not None:
+        shift = np.column_stack([np.interp(t, t[ok], shift[ok, k]) for k in range(2)])
+        if win >= 5:
+            shift = savgol_filter(shift, win, 2, axis=0, mode="interp")
     depth_med = float(np.median(fit["depth"][sel][ok]))
     # Honest ends: where the sheets end (or the image does), found from the two sides separately.
     # Profiles within a profile length of an end may be crossed by the sheet border, so the
@@ -161,6 +172,11 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     wb = w_run[lo:hi]
     c.width = np.concatenate([np.full(len(parts[0]), wb[0]), wb, np.full(len(parts[1]), wb[-1])])
     c.depth = depth_med
+    if shift is not None:
+        sb = shift[lo:hi]
+        c.band_points = pts_run - np.vstack([np.repeat(sb[:1], len(parts[0]), axis=0), sb,
+                                             np.repeat(sb[-1:], len(parts[1]), axis=0)])
+        c.band_width = float(np.median(band_fit["width"][sel][ok]))
     c.valid_frac = float(ok.mean())
     c.resid = float(np.median(fit["rms"][sel][ok] / np.maximum(fit["contrast"][sel][ok], 1e-6)))
     length = float(np.sum(np.linalg.norm(np.diff(pts_run, axis=0), axis=1)))

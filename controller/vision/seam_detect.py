@@ -109,6 +109,10 @@ class SeamDetection:
     its first point) where the gap was not seen and the centreline is bridged through (a tack
     weld, spatter, slag, glare); :attr:`occluded` gives the same per point (K,) bool. The
     centreline there is interpolated from the gap on both sides: not an end, and not measured.
+
+    ``band_px`` / ``band_width_px``: where a shadow was split off (:mod:`seam_shadow`), the whole
+    dark band's centreline (K, 2) and median width (px): the seam if that was a cut face inside
+    the gap (:mod:`controller.stereo.band_check` decides with two views). Else None.
     """
 
     points_px: F64
@@ -119,6 +123,8 @@ class SeamDetection:
     stats: dict[str, Any] = field(default_factory=dict)
     end_kinds: tuple[str, str] = (JOINT_END, JOINT_END)
     occluded_spans_px: list[tuple[float, float]] = field(default_factory=list)
+    band_px: F64 | None = None
+    band_width_px: float | None = None
 
     @property
     def ends(self) -> list[dict[str, Any]]:
@@ -151,6 +157,10 @@ class SeamDetection:
             "confidence": round(float(self.confidence), 4),
             "reasons": list(self.reasons),
             "gap_width_px": round(self.gap_width_px, 3),
+            "band_px": (None if self.band_px is None
+                        else np.round(self.band_px, decimals).tolist()),
+            "band_width_px": (None if self.band_width_px is None
+                              else round(self.band_width_px, 3)),
             "stats": {k: (round(v, 4) if isinstance(v, float) else v)
                       for k, v in self.stats.items()},
         }
@@ -283,6 +293,9 @@ def _detection(best: Candidate, ratio: float, conf: float, reasons: list[str],
     pts0 = best.points + [x0, y0]
     pts = orient(pts0)
     flipped = pts is not pts0
+    band = None if best.band_points is None else best.band_points + [x0, y0]
+    if band is not None and flipped:
+        band = band[::-1]
     width = best.width[::-1] if flipped else best.width
     kinds = public_end_kinds(best.end_kinds)
     bridged = best.bridged if best.bridged is not None else np.zeros(len(pts), bool)
@@ -294,7 +307,8 @@ def _detection(best: Candidate, ratio: float, conf: float, reasons: list[str],
              "candidates": len(cands), "way": best.way}
     return SeamDetection(points_px=pts, confidence=conf, reasons=reasons,
                          endpoints_px=np.array([pts[0], pts[-1]]), width_px=width, stats=stats,
-                         end_kinds=kinds, occluded_spans_px=spans_of(pts, bridged))
+                         end_kinds=kinds, occluded_spans_px=spans_of(pts, bridged),
+                         band_px=band, band_width_px=best.band_width if band is not None else None)
 
 
 def _as_grey(image: NDArray[Any]) -> NDArray[np.uint8]:

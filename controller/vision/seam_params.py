@@ -107,6 +107,10 @@ class Candidate:
     score: float = 0.0
     end_kinds: tuple[str, str] = ("open", "open")
     bridged: NDArray[np.bool_] | None = None  # per point of ``points``: interpolated, not seen
+    # Where a shadow band was split off (seam_shadow): the whole dark band's centreline (per
+    # point of ``points``) and median width (px), the reading if the lighter part is a cut face.
+    band_points: F64 | None = None
+    band_width: float | None = None
     stats: dict[str, float] = field(default_factory=dict)
     rival: bool = False  # rejected, but its line may be the joint: still makes others ambiguous
     way: str = "profiles"  # or "valley path" (controller.vision.seam_robust)
