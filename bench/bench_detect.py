@@ -63,11 +63,12 @@ from bench.detect_cases import (
 )
 from bench.detect_score import end_kinds_of, score_view
 from bench.published_detect import published_detect
-from controller.errors import SeamguideError
+from controller.errors import AmbiguousSeam, SeamguideError
 from controller.geometry.camera_model import default_camera
 from controller.stereo.locate import ViewObservation, locate_seam
 from controller.stereo.triangulate import PolylineDistance
-from controller.vision.seam_detect import detect_seam
+from controller.vision.seam_decision import one_reading
+from controller.vision.seam_detect import DetectParams, detect_seam
 
 BINS = (0.0, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99, 1.0001)
 
@@ -82,11 +83,16 @@ def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None) -> dict[st
             width: float | None = det.gap_width_px
             way = str(det.stats.get("way", ""))
             band = None if det.band_px is None else (det.band_px, det.band_width_px)
+            try:  # what `seamguide detect` answers from this image alone
+                one_reading(det.points_px, det.band_px, params or DetectParams())
+                ambiguous = None
+            except AmbiguousSeam as err:
+                ambiguous = f"AmbiguousSeam: {str(err)[:600]}"
             stats: dict[str, Any] = {k: v for k, v in det.stats.items() if k != "way"}
             stats["ends_px"] = np.round(det.endpoints_px, 1).tolist()
         else:
             pts, conf, kinds, width, way = published_detect(img), 1.0, None, None, ""
-            band = None
+            band, ambiguous = None, None
             stats = {}
     except SeamguideError as err:
         return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:600]}",
@@ -96,7 +102,19 @@ def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None) -> dict[st
                 "time_s": time.perf_counter() - t0}
     return {"result": "returned", "points": pts, "confidence": conf, "kinds": kinds,
             "width_px": width, "way": way, "stats": stats, "band": band,
-            "time_s": time.perf_counter() - t0}
+            "ambiguous": ambiguous, "time_s": time.perf_counter() - t0}
+
+
+def single_view(r: dict[str, Any]) -> dict[str, Any]:
+    """A scored ``_detect`` result as ``seamguide detect`` answers: refused where one image holds
+    two readings (a shadow split off without the job's gap, ``seam_decision.one_reading``),
+    with what the core's reading would have scored (``core_result``). The cycle still locates
+    with both readings (``_locate``)."""
+    if not r.get("ambiguous"):
+        r.pop("ambiguous", None)
+        return r
+    return {"result": "refused", "error": r["ambiguous"], "time_s": r["time_s"],
+            "core_result": r["result"], "split": True}
 
 
 def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]:
@@ -128,7 +146,7 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
             r.pop("width_px", None)
             if r.pop("band", None) is not None:
                 r["split"] = True  # a shadow split off: the whole band's reading came along
-            v[name] = r
+            v[name] = single_view(r)
         row["views"].append(v)
     if len(imgs) == 2:
         row["pair"] = (_locate(z, curves, widths, kinds, cam, bands=bands) if len(curves) == 2

@@ -25,7 +25,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from bench.bench_detect import _detect, _locate
+from bench.bench_detect import _detect, _locate, single_view
 from bench.detect_cases import FULL, case_cached, load_case, plan, view_truth
 from bench.detect_score import score_view
 from controller.geometry.camera_model import default_camera
@@ -58,6 +58,7 @@ def run_case(args: tuple[tuple[str, str, str, int], tuple[float, float]]) -> dic
                 widths.append(r["width_px"])
                 bands.append(r["band"])
                 kinds.append(tuple(said) if said and len(said) == 2 else None)
+            r = single_view(r)
             views.append({k: r.get(k) for k in ("result", "why", "confidence", "error")})
         row[way] = {"views": views}
         if len(imgs) == 2:

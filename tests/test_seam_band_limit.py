@@ -92,3 +92,50 @@ def test_cli_detect_gap_mm_refuses_the_band_and_without_it_returns_it(tmp_path, 
     code = main([*scale, "--gap-mm", *map(str, JOB_GAP_MM), "--output", str(out)])
     assert code == SeamNotFound.exit_code and not out.exists()
     assert "dark band" in capsys.readouterr().err
+
+
+def test_one_image_with_a_split_and_no_gap_stated_is_two_readings_not_a_guess():
+    from controller.vision.seam_decision import one_reading
+    from controller.vision.seam_params import DetectParams
+
+    core = np.column_stack([np.arange(400.0), np.full(400, 100.0)])
+    band = core + [0.0, 3.5]
+    one_reading(core, None, DetectParams())  # nothing split off: one reading
+    with pytest.raises(AmbiguousSeam) as info:
+        one_reading(core, band, DetectParams())
+    assert "3.5 px away" in str(info.value) and "--gap-mm" in str(info.value)
+    assert info.value.details["offset_px"] == 3.5
+    # The job's gap decides it (a core narrower than the narrowest gap was kept whole).
+    one_reading(core, band, job_params())
+
+
+def test_cli_detect_refuses_a_split_without_the_gap_and_returns_it_with_the_gap(tmp_path,
+                                                                                 capsys):
+    import json
+
+    import cv2
+
+    from calibration.calibration_file import Calibration, save_calibration
+    from controller.cli import main
+
+    r = lopsided(1, depth=0.6)  # a lighter shadow: split off, the core is the gap
+    png, calib = tmp_path / "shadow.png", tmp_path / "cam.yaml"
+    out, overlay = tmp_path / "seam.json", tmp_path / "overlay.png"
+    cv2.imwrite(str(png), r.image)
+    save_calibration(calib, Calibration(camera=CAM))
+    code = main(["detect", str(png), "--output", str(out), "--overlay", str(overlay)])
+    assert code == AmbiguousSeam.exit_code and not out.exists()
+    err = capsys.readouterr().err
+    assert "cut face" in err and "shadow" in err and "--gap-mm" in err
+    # The overlay draws both readings: green (the core) and yellow (the band) on the image.
+    b, g, r_ = (cv2.imread(str(overlay)).astype(int)[:, :, k] for k in range(3))
+    yellow = (b < 60) & (g > 150) & (r_ > 180)
+    green = (g - np.maximum(b, r_) > 100) & (r_ < 80)
+    assert yellow.sum() > 200 and green.sum() > 200
+    code = main(["detect", str(png), "--calibration", str(calib), "--distance-mm",
+                 str(STANDOFF_MM), "--gap-mm", *map(str, JOB_GAP_MM), "--output", str(out)])
+    assert code == 0
+    doc = json.loads(out.read_text())
+    assert doc["band_px"] is not None and doc["band_width_px"] > doc["gap_width_px"] + 4.0
+    off = signed_offsets(type("D", (), {"points_px": np.asarray(doc["seam_px"])}), r.seam_px)
+    assert abs(np.median(off[10:-10])) < 0.8

@@ -21,7 +21,9 @@ def register(sub: Any) -> None:
         "same order: [{\"px\": [u, v], \"kind\": \"joint_end\" | \"image_border\"}, ...]), "
         "occluded_spans_px (arc-length ranges bridged through tack welds or spatter), "
         "confidence (0..1) and reasons. Exit code 9 when no seam is found, 10 when two "
-        "candidates are too alike to choose. Contract: docs/seam-detect.md.")
+        "candidates are too alike to choose, or when a dark band with a darker core on one "
+        "side may be the gap beside a shadow or a gap with a cut face inside it (give --gap-mm, "
+        "or locate from two views). Contract: docs/seam-detect.md.")
     p.add_argument("image", help="image file (PNG, JPEG, ...; 8-bit greyscale or colour)")
     p.add_argument("--calibration", help="calibration file: checks that the image size matches")
     p.add_argument("--output", help="write the JSON here instead of stdout")
@@ -57,6 +59,7 @@ def _parse_roi(text: str | None) -> tuple[int, int, int, int] | None:
 def run(args: argparse.Namespace) -> int:
     """Run ``seamguide detect``; returns 0, or raises a SeamguideError (its exit code is used)."""
     from controller.vision.image_io import load_image
+    from controller.vision.seam_decision import one_reading
     from controller.vision.seam_detect import DetectParams, detect_seam
     from controller.vision.seam_overlay import draw_overlay
 
@@ -70,11 +73,14 @@ def run(args: argparse.Namespace) -> int:
     if args.gamma <= 0:
         raise InputError(f"--gamma {args.gamma}: must be positive")
     params = _scaled(DetectParams(gamma=args.gamma), args, camera)
+    det = None
     try:
         det = detect_seam(image, camera=camera, roi=roi, params=params)
+        # A shadow split off without the job's gap: two readings one image cannot choose from.
+        one_reading(det.points_px, det.band_px, params)
     except (SeamNotFound, AmbiguousSeam) as err:
         if args.overlay:
-            _write_png(args.overlay, draw_overlay(image, None, f"NO SEAM: {err}"))
+            _write_png(args.overlay, draw_overlay(image, det, f"NO SEAM: {err}"))
         raise
     if args.overlay:
         _write_png(args.overlay, draw_overlay(image, det))

@@ -206,3 +206,26 @@ def spans_of(pts: F64, mask: NDArray[np.bool_]) -> list[tuple[float, float]]:
         else:
             out.append((lo, hi))
     return out
+
+
+def one_reading(points_px: F64, band_px: F64 | None, p: DetectParams) -> None:
+    """Raise :class:`AmbiguousSeam` where one image holds two readings and nothing says which.
+
+    ``points_px`` (K, 2) is the centreline of a dark band's darker core taken as the gap beside a
+    shadow, ``band_px`` (K, 2, point for point) the whole band's: the seam if the lighter part is
+    the far sheet's cut face seen inside a wide gap (:mod:`controller.vision.seam_shadow`). One
+    image cannot tell them apart (the simulator's wide scenes, 2026-12-04: of 15 split views the
+    core was the gap in 9, the band in 6); two views can (:mod:`controller.stereo.band_check`),
+    and so can a job that states its gap (``p.min_gap_px`` > 0: a core narrower than the
+    narrowest gap was not split off). For a single-image answer (``seamguide detect``) without
+    either, the split is a refusal naming both lines, not a guess.
+    """
+    if band_px is None or p.min_gap_px > 0:
+        return
+    off = float(np.median(np.linalg.norm(band_px - points_px, axis=1)))
+    raise AmbiguousSeam(
+        f"the dark band across the seam has a darker core on one side: either the gap beside a "
+        f"shadow (the core's middle) or a wide gap with the far sheet's cut face seen inside it "
+        f"(the whole band's middle, {off:.1f} px away); one image cannot tell which. Locate the "
+        f"seam from two views (seamguide locate decides in 3D), or give the expected gap "
+        f"(--calibration C --distance-mm Z --gap-mm LO HI)", offset_px=round(off, 2))

@@ -38,7 +38,8 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
                  message: str | None = None, max_width: int = 1600) -> NDArray[np.uint8]:
     """BGR uint8 picture: ``image`` dimmed, the seam in green, ends in orange, text on top.
 
-    ``detection`` may be None (a failed detection), then ``message`` says why. The picture is
+    ``detection`` may be None (a failed detection), then ``message`` says why; with both, the
+    detection was refused for a single-image answer (two readings, drawn). The picture is
     shrunk to at most ``max_width`` px wide (drawing is done at full resolution first).
     """
     img = image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
@@ -58,12 +59,22 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
                         (int(e[0]) + 14 * scale_line, int(e[1]) - 14 * scale_line),
                         cv2.FONT_HERSHEY_SIMPLEX, 0.6 * scale_line, (0, 140, 255), scale_line,
                         cv2.LINE_AA)
-        lines.append(f"seam found, confidence {detection.confidence:.2f}")
-        lines += detection.reasons
+        if detection.band_px is not None:
+            cv2.polylines(out, [_fixed(detection.band_px).reshape(-1, 1, 2)], False,
+                          (0, 220, 255), scale_line, cv2.LINE_AA, _SHIFT)
+        if message:  # returned by the detector, refused for a single-image answer
+            lines.append("green: the darker core's middle, the seam if the lighter part is a "
+                         "shadow beside the gap")
+        else:
+            lines.append(f"seam found, confidence {detection.confidence:.2f}")
+            lines += detection.reasons
+        if detection.band_px is not None:
+            lines.append("yellow: the whole dark band's middle, the seam if its lighter part is "
+                         "a cut face inside the gap rather than a shadow beside it")
     if message:
         lines.append(message)
     y = 40 * scale_line
-    colour = (40, 230, 40) if detection is not None else (60, 60, 255)
+    colour = (40, 230, 40) if detection is not None and not message else (60, 60, 255)
     # Hershey simplex at 0.7 x scale_line: about 12 x scale_line px a character.
     for text in text_lines(lines, (W - 40 * scale_line) // (12 * scale_line)):
         cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
