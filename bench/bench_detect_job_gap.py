@@ -9,6 +9,9 @@ Over the cached ``wide`` and ``pen`` cases of ``bench.bench_detect`` (both parts
 detected three ways: **defaults** (``DetectParams()``, as the benchmark measures); **scaled**
 (``params_for_scale(px/mm, job gap)``: the scales a job stating its gap gives, without the band
 limit); **job gap** (the same with ``limit_band``: what the cycle and ``detect --gap-mm`` now do).
+Single views are counted as ``seamguide detect`` answers (``bench_detect.single_view``): a shadow
+split off without the job's narrowest gap is refused as two readings (column ``2read``; ``band``:
+refused for a band wider than the job's gap); pairs are located with both readings, as the cycle.
 The job's gap is the scene's true gap times ``--range`` (default 0.5-1.5: a nominal gap with
 +-50 %), px/mm the view's true gap in px over its gap in mm (the scale at the seam; the cycle
 uses ``fx / Z`` at the nominal centre). Views are scored by ``bench.detect_score`` and pairs
@@ -75,8 +78,12 @@ def summary(rows: list[dict[str, Any]], way: str) -> dict[str, int]:
     out["views"] = len(views)
     out.update(pairs=len(pairs), pairs_located=pairs.count("located"),
                pairs_partial=pairs.count("partial"), pairs_wrong=pairs.count("wrong"))
-    out["refused_for_band"] = sum(v["result"] == "refused" and "dark band" in (v["error"] or "")
-                                  for v in views)
+    # Refused for a band wider than the job's gap (seam_decision._mark_too_wide), and for two
+    # readings one image cannot choose from (a shadow split without the job's gap: one_reading).
+    out["refused_for_band"] = sum(v["result"] == "refused" and "the job's gap makes at most"
+                                  in (v["error"] or "") for v in views)
+    out["refused_two_readings"] = sum(v["result"] == "refused" and "one image cannot tell"
+                                      in (v["error"] or "") for v in views)
     return out
 
 
@@ -108,11 +115,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(cases)} cases in {report['time_s']:.0f} s; job gap = true gap x "
           f"{args.range[0]:g}-{args.range[1]:g}")
     print(f"{'part/look':18s} {'way':9s} {'views':>5s} {'found':>5s} {'wrong':>5s} "
-          f"{'band':>5s} {'pairs':>5s} {'loc':>4s} {'part':>4s} {'wrong':>5s}")
+          f"{'band':>5s} {'2read':>5s} {'pairs':>5s} {'loc':>4s} {'part':>4s} {'wrong':>5s}")
     for key, by_way in report["summary"].items():
         for w, s in by_way.items():
             print(f"{key:18s} {w:9s} {s['views']:5d} {s['found']:5d} {s['wrong']:5d} "
-                  f"{s['refused_for_band']:5d} {s['pairs']:5d} {s['pairs_located']:4d} "
+                  f"{s['refused_for_band']:5d} {s['refused_two_readings']:5d} "
+                  f"{s['pairs']:5d} {s['pairs_located']:4d} "
                   f"{s['pairs_partial']:4d} {s['pairs_wrong']:5d}")
     return 0
 

@@ -36,6 +36,24 @@ def test_pairs_are_located_with_the_detectors_end_kinds(monkeypatch: pytest.Monk
     assert seen["kw"]["clip_unseen_ends"] is False  # the job's default
     bench_detect._locate(z, [curve, curve], [4.0, None], kinds, default_camera(), clip=True)
     assert seen["kw"]["clip_unseen_ends"] is True
+    # A view with a shadow split carries the whole band's reading to the pair, as the cycle.
+    band = curve + [0.0, 3.0]
+    bench_detect._locate(z, [curve, curve], [4.0, 4.0], kinds, default_camera(),
+                         bands=[(band, 9.0), None])
+    v1, v2 = seen["views"]
+    assert np.array_equal(v1.band_px, band) and v1.band_width_px == 9.0 and v2.band_px is None
+
+
+def test_a_split_single_view_counts_as_seamguide_detect_answers_it() -> None:
+    found = {"result": "found", "ambiguous": None, "time_s": 0.1, "confidence": 0.9}
+    assert bench_detect.single_view(dict(found)) == {k: v for k, v in found.items()
+                                                     if k != "ambiguous"}
+    split = {**found, "ambiguous": "AmbiguousSeam: ... one image cannot tell which ..."}
+    out = bench_detect.single_view(split)
+    assert out["result"] == "refused" and out["core_result"] == "found" and out["split"]
+    assert "one image cannot tell" in out["error"] and "confidence" not in out
+    s = bench_detect.summarise([{"views": [{"ours": out}, {"ours": found}]}], "ours")
+    assert (s["found"], s["refused"], s["split"]) == (1, 1, 1)
 
 
 def test_pair_summary_counts_the_clipped_pairs_and_old_reports_say_nothing() -> None:
