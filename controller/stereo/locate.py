@@ -18,7 +18,7 @@ from controller.errors import TriangulationError
 from controller.geometry.poses import invert, transform_points
 from controller.stereo.band_check import band_or_core
 from controller.stereo.match_views import ViewObservation, triangulate_views
-from controller.stereo.seam_curve import arc_length, resample_curve, smooth_curve
+from controller.stereo.seam_curve import arc_length, end_bend_mm, resample_curve, smooth_curve
 from controller.stereo.seam_ends import (
     clip_to_region,
     judge_ends,
@@ -44,6 +44,7 @@ class QualityLimits:
     max_degenerate_fraction: float = 0.15
     max_endpoint_gap_mm: float = 1.0
     max_gap_width_diff_mm: float = 0.3
+    max_end_bend_mm: float = 0.5
     min_length_mm: float = 10.0
     require_ends_in_view: bool = True
     border_margin_px: float = 12.0
@@ -158,6 +159,7 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         "ends_cut_by_image_border": cut,
         "ends": ends,
         "length_mm": float(arc_length(dense)[-1]),
+        "end_bend_mm": end_bend_mm(dense),
         "gap_width_mm": [gap_width_mm(v, dense) for v in views],
     }
     if band_reading is not None:
@@ -241,6 +243,15 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
                             f"{lim.max_gap_width_diff_mm} mm or half the narrower): one of them "
                             f"took a shadow or a cut face beside the gap for part of it, so its "
                             f"centreline is off the joint (see the overlays)")
+    bends = [(e, b) for e, b in zip(("start", "end"), q.get("end_bend_mm") or (None, None),
+                                           strict=True)
+             if b is not None and b > lim.max_end_bend_mm]
+    if bends:
+        where = " and ".join(f"{b:.2f} mm at its {e}" for e, b in bends)
+        problems.append(f"the 3D seam turns off its own course in its last 1.5 mm ({where}; "
+                        f"limit {lim.max_end_bend_mm} mm): a view's curve leaves the gap near "
+                        f"that end (a rounded corner, a ragged or covered end; see the overlays), "
+                        f"which moves the end along the other view's rays")
     unseen = [e for e in q["ends"] if e["status"] == "unseen"]
     if lim.require_ends_in_view and unseen:
         problems.append(unseen_ends_problem(unseen))

@@ -74,3 +74,28 @@ def resample_curve(points: F64, spacing_mm: float | None = 2.0, count: int | Non
         raise ConfigError(f"weld point count must be at least 2, got {count}")
     target = np.linspace(0.0, length, count)
     return np.column_stack([np.interp(target, s, points[:, k]) for k in range(3)])
+
+
+def end_bend_mm(points: F64, tip_mm: float = 1.5, reach_mm: float = 10.0) -> list[float | None]:
+    """How far each end of a 3D seam (N, 3) mm leaves its own course: [start, end] mm or None.
+
+    Per end, a quadratic in arc length is fitted (per coordinate) to the points between
+    ``tip_mm`` and ``reach_mm`` from that end and extrapolated over the last ``tip_mm``; the
+    value is the largest distance of those last points from it. A joint does not turn off its
+    course in its last millimetre; a seam that does took a detection artefact at its end in
+    one view (a curve's last pixels off the gap across the seam move the triangulated end along
+    the other view's rays, which no ray gap shows). None where fewer than 5 points fit or no
+    point lies within ``tip_mm`` of the end.
+    """
+    P = np.asarray(points, dtype=np.float64)
+    s = arc_length(P)
+    out: list[float | None] = []
+    for d in (s, s[-1] - s):
+        fit, tip = (d > tip_mm) & (d < reach_mm), d <= tip_mm
+        if fit.sum() < 5 or not tip.any():
+            out.append(None)
+            continue
+        coef = np.polyfit(d[fit], P[fit], 2)  # (3, 3): one quadratic per coordinate
+        pred = np.column_stack([np.polyval(coef[:, k], d[tip]) for k in range(3)])
+        out.append(float(np.max(np.linalg.norm(P[tip] - pred, axis=1))))
+    return out
