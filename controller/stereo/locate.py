@@ -97,7 +97,11 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     (``max_gap_width_diff_mm``, or half the narrower): a view that took a shadow band or a cut
     face beside the gap for part of it has its centreline off by half of that, which shifts the
     triangulated seam along the other view's rays by a millimetre without tripping the
-    reprojection limits.
+    reprojection limits. For the same reason an end that turns off the seam's own course
+    (``max_end_bend_mm``, :func:`controller.stereo.seam_curve.end_bend_mm`) is refused. Where
+    every view split a shadow off the gap, both readings are triangulated and the one the
+    views' geometry supports is located (:mod:`controller.stereo.band_check`,
+    ``quality["band_reading"]``).
     """
     views, band_reading = band_or_core(views, limits.min_angle_deg, sample_px)
     tri = triangulate_views(views, limits.min_angle_deg, sample_px)

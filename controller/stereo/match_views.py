@@ -50,7 +50,6 @@ class Triangulated:
     rms_gap: F64  # (n,) RMS distance of the rays from X (mm)
     angle: F64  # (n,) largest angle between the rays (deg)
     degenerate: NDArray[np.bool_]  # (n,) the curve runs along an epipolar line in some view
-    matched: NDArray[np.bool_]  # (n,) matched in some other view
 
     @property
     def ok(self) -> NDArray[np.bool_]:
@@ -89,7 +88,6 @@ def triangulate_views(views: list[ViewObservation], min_angle_deg: float,
     dirs = np.full((V, n, 3), np.nan)
     valid = np.zeros((V, n), dtype=bool)
     degenerate_any = np.zeros(n, dtype=bool)
-    matched_any = np.zeros(n, dtype=bool)
     T0 = np.asarray(views[0].T_base_cam, dtype=np.float64)
     origins[0], dirs[0] = views[0].camera.pixel_rays(ref_px, T0)
     for k in range(1, V):
@@ -103,7 +101,6 @@ def triangulate_views(views: list[ViewObservation], min_angle_deg: float,
         dirs[k] = d @ Tk[:3, :3].T
         valid[k] = good
         degenerate_any |= m.degenerate
-        matched_any |= np.isfinite(m.t)
     valid[0] = valid[1:].any(axis=0)
     X, rms_gap, angle = triangulate_rays(origins, dirs, valid)
-    return Triangulated(curves, ref_px, X, rms_gap, angle, degenerate_any, matched_any)
+    return Triangulated(curves, ref_px, X, rms_gap, angle, degenerate_any)

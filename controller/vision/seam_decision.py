@@ -214,8 +214,8 @@ def one_reading(points_px: F64, band_px: F64 | None, p: DetectParams) -> None:
     ``points_px`` (K, 2) is the centreline of a dark band's darker core taken as the gap beside a
     shadow, ``band_px`` (K, 2, point for point) the whole band's: the seam if the lighter part is
     the far sheet's cut face seen inside a wide gap (:mod:`controller.vision.seam_shadow`). One
-    image cannot tell them apart (the simulator's wide scenes, 2026-12-04: of 15 split views the
-    core was the gap in 9, the band in 6); two views can (:mod:`controller.stereo.band_check`),
+    image cannot tell them apart (the simulator's wide scenes, 2026-12-04: of 16 split views the
+    core was the gap in 10, the band in 6); two views can (:mod:`controller.stereo.band_check`),
     and so can a job that states its gap (``p.min_gap_px`` > 0: a core narrower than the
     narrowest gap was not split off). For a single-image answer (``seamguide detect``) without
     either, the split is a refusal naming both lines, not a guess.
