@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from stereo_scenes import camera_poses, observe, seam_curve
 
+from controller.errors import TriangulationError
 from controller.stereo.band_check import band_or_core
 from controller.stereo.locate import locate_seam
 from controller.stereo.triangulate import PolylineDistance
@@ -80,3 +81,25 @@ def test_a_split_in_only_one_view_is_left_to_the_stereo_checks():
     out, record = band_or_core(views, 8.0)
     assert out is views and record is None
     assert "band_reading" not in locate_seam(views).quality
+
+
+def test_the_jobs_normal_is_the_reference_when_given():
+    # The same cut-face geometry judged against a normal lying in the sheet (a wrong one, on
+    # purpose): the offset is then across it, and the core is kept. The job's normal is used.
+    P = seam_curve("straight")
+    views = with_bands(P + 1.5 * DOWN, P, camera_poses(P))
+    _, right = band_or_core(views, 8.0, normal=np.array([0.0, 0.0, 1.0]))
+    _, wrong = band_or_core(views, 8.0, normal=np.array([1.0, 0.0, 0.0]))
+    assert right["reading"] == "band" and right["angle_deg"] < 5.0
+    assert wrong["reading"] == "core" and wrong["angle_deg"] > 85.0
+
+
+def test_readings_apart_at_45_deg_are_neither_and_refused():
+    P = seam_curve("straight")
+    views = with_bands(P, P + 0.5 * across(P) - 0.5 * DOWN, camera_poses(P))
+    with pytest.raises(TriangulationError) as info:
+        locate_seam(views)
+    msg = str(info.value)
+    assert "neither a shadow" in msg and "[seam] gap_mm" in msg, msg
+    assert info.value.details["band_reading"]["reading"] == "undecided"
+    assert 35.0 < info.value.details["band_reading"]["angle_deg"] < 55.0

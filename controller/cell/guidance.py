@@ -219,7 +219,8 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
                     for v, d in zip(views, detections, strict=True)]
     seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
                        count=settings.count, nominal_region=settings.nominal_region,
-                       clip_unseen_ends=settings.clip_unseen_ends)
+                       clip_unseen_ends=settings.clip_unseen_ends,
+                       normal=None if settings.normal is None else np.asarray(settings.normal))
     ends = seam.quality.get("ends", [])
     clipped = [e for e in ends if e["status"] == "clipped"]
     if clipped:

@@ -16,9 +16,12 @@ whole band's centreline. One view cannot tell which it is; 3D can (sheet top at 
   half a sheet thickness too deep (the dry run's open_ends seed 3: 1.06 mm).
 
 So both readings are triangulated and their offset (per point, the component along the seam
-removed; medians over the seam) is compared with the sheet normal, taken as minus the views' mean
-optical axis (as the planner does when the job gives none): within 45 deg of it, the band is the
-gap. This is geometry, not a fitted threshold. It applies when every view split a band. A split
+removed; medians over the seam) is compared with the sheet normal: the job's (``[seam]
+normal``) or, without one, minus the views' mean optical axis (as the planner takes it). Within
+``DECIDED_DEG`` of the normal the band is the gap; within ``DECIDED_DEG`` of the sheet, the core.
+The two cases give 0 and 90 deg up to the normal's error (the views' mean axis is off the
+sheet's normal by the views' asymmetry, 10-20 deg in the dry run's cell); an offset in between is
+neither, and the seam is refused rather than guessed (``"undecided"``). A split
 in only some views cannot be decided this way (the unsplit view's line is the band under either
 reading, so the two pairs differ only along its rays); it is left to the stereo checks, where the
 gap widths in mm disagree and the pair is refused.
@@ -38,17 +41,24 @@ from controller.stereo.view_geometry import nominal_normal_from_views
 
 F64 = NDArray[np.float64]
 
+#: Largest angle (deg) between the readings' offset and the normal (a cut face) or the sheet (a
+#: shadow) that decides; in between, neither: refused. Halfway between the pure cases' 0 and 45.
+DECIDED_DEG = 30.0
 
-def band_or_core(views: list[ViewObservation], min_angle_deg: float,
-                 sample_px: float = 2.0) -> tuple[list[ViewObservation], dict[str, Any] | None]:
+
+def band_or_core(views: list[ViewObservation], min_angle_deg: float, sample_px: float = 2.0,
+                 normal: F64 | None = None
+                 ) -> tuple[list[ViewObservation], dict[str, Any] | None]:
     """The views to locate with (the cores' or the whole bands' centrelines) and why (module doc).
 
-    Returns ``views`` unchanged and None unless every view carries a band (``band_px``). Else
-    the record: ``reading`` ("core": a shadow beside the gap; "band": a cut face inside it),
-    ``offset_mm`` (how far apart the readings lie, median), its median components
-    ``along_normal_mm`` (band minus core, toward the cameras) and ``across_mm``.
-    Where either reading cannot be triangulated (fewer than 5 points) the cores are kept and
-    ``reading`` is "core (undecided)".
+    ``normal``: the sheet's normal in the base frame (the job's), None: minus the views' mean
+    optical axis. Returns ``views`` unchanged and None unless every view carries a band
+    (``band_px``). Else the record: ``reading`` ("core": a shadow beside the gap; "band": a cut
+    face inside it; "undecided": neither, the caller refuses), ``offset_mm`` (how far apart the
+    readings lie, median), its median components ``along_normal_mm`` (band minus core, toward
+    the cameras) and ``across_mm``, and ``angle_deg`` from the normal. Where either reading
+    cannot be triangulated (fewer than 5 points) the cores are kept and ``reading`` is "core
+    (not triangulated)": the stereo checks then judge the cores.
     """
     band_px = [v.band_px for v in views]
     if len(views) < 2 or any(b is None for b in band_px):
@@ -59,19 +69,24 @@ def band_or_core(views: list[ViewObservation], min_angle_deg: float,
     band = triangulate_views(bands, min_angle_deg, sample_px)
     Xc, Xb = core.X[core.ok], band.X[band.ok]
     if len(Xc) < 5 or len(Xb) < 5:
-        return views, {"reading": "core (undecided)"}
+        return views, {"reading": "core (not triangulated)"}
     _, nearest = cKDTree(Xb).query(Xc)
     d = Xb[nearest] - Xc
     tangent = np.gradient(Xc, axis=0)
     tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
     d -= np.sum(d * tangent, axis=1, keepdims=True) * tangent
-    normal = nominal_normal_from_views([v.T_base_cam for v in views])
+    if normal is None:
+        normal = nominal_normal_from_views([v.T_base_cam for v in views])
+    normal = np.asarray(normal, dtype=np.float64) / np.linalg.norm(normal)
     # Per point, then the median: on a curved seam the across direction turns along it.
     d_along = d @ normal
     along = float(np.median(d_along))
     across = float(np.median(np.linalg.norm(d - d_along[:, None] * normal, axis=1)))
-    reading = "band" if abs(along) > across else "core"
+    angle = float(np.degrees(np.arctan2(across, abs(along))))
+    reading = ("band" if angle <= DECIDED_DEG else "core" if angle >= 90.0 - DECIDED_DEG
+               else "undecided")
     offset = float(np.median(np.linalg.norm(d, axis=1)))
     record = {"reading": reading, "offset_mm": round(offset, 3),
-              "along_normal_mm": round(along, 3), "across_mm": round(across, 3)}
+              "along_normal_mm": round(along, 3), "across_mm": round(across, 3),
+              "angle_deg": round(angle, 1)}
     return (bands if reading == "band" else views), record

@@ -78,7 +78,7 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
                 spacing_mm: float | None = 2.0, count: int | None = None,
                 sample_px: float = 2.0,
                 nominal_region: tuple[F64, float] | None = None,
-                clip_unseen_ends: bool = False) -> Seam3D:
+                clip_unseen_ends: bool = False, normal: F64 | None = None) -> Seam3D:
     """Triangulate a seam seen in two or more views; the first view is the reference.
 
     ``spacing_mm`` / ``count`` set the resampling of the output points (see
@@ -101,9 +101,19 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     (``max_end_bend_mm``, :func:`controller.stereo.seam_curve.end_bend_mm`) is refused. Where
     every view split a shadow off the gap, both readings are triangulated and the one the
     views' geometry supports is located (:mod:`controller.stereo.band_check`,
-    ``quality["band_reading"]``).
+    ``quality["band_reading"]``; ``normal``: the sheets' normal in the base frame from the job,
+    None: from the views), or the seam is refused where it supports neither.
     """
-    views, band_reading = band_or_core(views, limits.min_angle_deg, sample_px)
+    views, band_reading = band_or_core(views, limits.min_angle_deg, sample_px, normal)
+    if band_reading is not None and band_reading["reading"] == "undecided":
+        raise TriangulationError(
+            f"every view split the gap's dark band into a darker core and a lighter band, and "
+            f"the two readings lie {band_reading['offset_mm']:.2f} mm apart at "
+            f"{band_reading['angle_deg']:.0f} deg from the sheet normal: neither a shadow beside "
+            f"the gap (across the seam) nor a cut face inside it (along the normal). State the "
+            f"joint's gap ([seam] gap_mm) and the sheets' normal ([seam] normal) in the job, "
+            f"and see the overlays", band_reading=band_reading,
+            views=[v.name for v in views])
     tri = triangulate_views(views, limits.min_angle_deg, sample_px)
     curves, ref_px, X, rms_gap, angle = tri.curves, tri.ref_px, tri.X, tri.rms_gap, tri.angle
     degenerate_any, n, V = tri.degenerate, len(tri.ref_px), len(views)
