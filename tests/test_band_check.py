@@ -103,3 +103,17 @@ def test_readings_apart_at_45_deg_are_neither_and_refused():
     assert "neither a shadow" in msg and "[seam] gap_mm" in msg, msg
     assert info.value.details["band_reading"]["reading"] == "undecided"
     assert 35.0 < info.value.details["band_reading"]["angle_deg"] < 55.0
+
+
+def test_a_split_in_one_view_only_is_refused_saying_what_would_decide_it():
+    # View 1 split (core 4 px, whole band 9 px); view 2 saw one band 9 px wide. The widths in mm
+    # disagree, and the reason says which view split and that the job's gap decides it.
+    P = seam_curve("straight")
+    views = with_bands(P, P + 0.75 * across(P), camera_poses(P))
+    views[1] = dataclasses.replace(views[1], gap_width_px=9.0, band_px=None, band_width_px=None)
+    views[0] = dataclasses.replace(views[0], gap_width_px=4.0, band_width_px=9.0)
+    with pytest.raises(TriangulationError) as info:
+        locate_seam(views)
+    msg = str(info.value)
+    assert "different widths" in msg and "view1 (whole band" in msg, msg
+    assert "[seam] gap_mm" in msg and "view2 (whole band" not in msg

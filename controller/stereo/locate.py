@@ -8,7 +8,7 @@ nothing doubtful is handed on to the weld.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -202,6 +202,26 @@ def gap_width_mm(view: ViewObservation, dense: F64) -> float | None:
     return float(view.gap_width_px * np.median(z) / view.camera.fx)
 
 
+def _split_hint(views: list[ViewObservation], dense: F64) -> str:
+    """What to say where some views (not all) split a shadow off the gap: which, and what helps.
+
+    With one view split and the other not, the two readings differ only along the other
+    view's rays, so no 3D check tells a shadow from a cut face (:mod:`band_check`).
+    """
+    split = [v for v in views if v.band_px is not None and v.band_width_px is not None]
+    if not split or len(split) == len(views):
+        return ""
+    parts = []
+    for v in split:
+        whole = gap_width_mm(replace(v, gap_width_px=v.band_width_px), dense)
+        parts.append(f"{v.name} (whole band {whole:.2f} mm)")
+    names = ", ".join(parts)
+    return (f"; {names} split its dark band into a darker core and a lighter part where the "
+            f"other views see one band: a shadow beside the gap, or the far sheet's cut face "
+            f"inside a wide gap, which these views cannot tell apart. A job that states the "
+            f"joint's gap ([seam] gap_mm) decides it")
+
+
 def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_], dense: F64,
            s_ref: F64, first: int, views: list[ViewObservation],
            details: dict[str, Any]) -> None:
@@ -256,7 +276,8 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
             problems.append(f"the views see the gap at different widths ({seen}; limit "
                             f"{lim.max_gap_width_diff_mm} mm or half the narrower): one of them "
                             f"took a shadow or a cut face beside the gap for part of it, so its "
-                            f"centreline is off the joint (see the overlays)")
+                            f"centreline is off the joint (see the overlays)" + _split_hint(views,
+                                                                                          dense))
     bends = [(e, b) for e, b in zip(("start", "end"), q.get("end_bend_mm") or (None, None),
                                            strict=True)
              if b is not None and b > lim.max_end_bend_mm]
