@@ -6,6 +6,8 @@ first or last millimetre lands 1-2 mm off (the benchmark's wrong pairs, tuning m
 hard 10081: both views within the 2D scorer's tolerance). Exact synthetic geometry.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 from stereo_scenes import camera_poses, observe, seam_curve
@@ -22,7 +24,7 @@ def bent_at_the_start(views, px, n=8):
     t = c[1] - c[0]
     nrm = np.array([-t[1], t[0]]) / np.linalg.norm(t)
     c[:n] += np.outer(np.linspace(1.0, 0.0, n) ** 2 * px, nrm)
-    return [views[0], type(v)(**{**v.__dict__, "seam_px": c})]
+    return [views[0], dataclasses.replace(v, seam_px=c)]
 
 
 @pytest.mark.parametrize("kind", ["straight", "arc", "s_curve", "nonplanar"])
