@@ -164,10 +164,17 @@ def fn_oracle(imgs, tpx, poses, scene, cell, calib_cam=None, calib_T=None):
 
 
 def fn_ours(imgs, tpx, poses, scene, cell, calib_cam=None, calib_T=None):
+    # As the cycle locates (controller/cell/guidance.py): each view's end kinds, gap width and
+    # split-off band go with its centreline (until 2026-12-04 only the centrelines did).
+    from controller.cell.guidance import ViewInput, observation
+
     cam = calib_cam or cell.camera
     T = calib_T or poses
-    curves = [d.points_px for d in detect_seams(imgs, camera=cam)]
-    return locate_seam(observations(cam, T, curves), nominal_region=region(scene)).dense_points_mm
+    views = [ViewInput(f"view{i + 1}", im, cam, Ti) for i, (im, Ti) in enumerate(zip(imgs, T,
+                                                                                     strict=True))]
+    dets = detect_seams(imgs, camera=cam)
+    return locate_seam([observation(v, d) for v, d in zip(views, dets, strict=True)],
+                       nominal_region=region(scene)).dense_points_mm
 
 
 def fn_pub_epi(imgs, tpx, poses, scene, cell):

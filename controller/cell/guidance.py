@@ -211,12 +211,7 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
         on_detections(detections)
     if check is not None:
         check()
-    observations = [ViewObservation(v.camera, v.T_base_cam, d.points_px, v.name,
-                                    getattr(d, "end_kinds", None),
-                                    getattr(d, "gap_width_px", None),
-                                    getattr(d, "band_px", None),
-                                    getattr(d, "band_width_px", None))
-                    for v, d in zip(views, detections, strict=True)]
+    observations = [observation(v, d) for v, d in zip(views, detections, strict=True)]
     seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
                        count=settings.count, nominal_region=settings.nominal_region,
                        clip_unseen_ends=settings.clip_unseen_ends,
@@ -235,6 +230,20 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
     if note is not None:
         note(seam_ends=ends, **({} if band is None else {"band_reading": band}))
     return Located(seam, list(detections), observations, warning)
+
+
+def observation(view: ViewInput, detection: Any) -> ViewObservation:
+    """What locating takes from one view and its detection.
+
+    ``detection``: a :class:`SeamDetection`, or any object with ``points_px``. The centreline
+    (px), and where the detector gives them its end kinds, the gap's width and the whole band's
+    reading where a shadow was split off.
+    """
+    return ViewObservation(view.camera, view.T_base_cam, detection.points_px, view.name,
+                           getattr(detection, "end_kinds", None),
+                           getattr(detection, "gap_width_px", None),
+                           getattr(detection, "band_px", None),
+                           getattr(detection, "band_width_px", None))
 
 
 def plan_path(located: Located, settings: GuidanceSettings, model: RobotModel | None = None,
