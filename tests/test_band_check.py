@@ -78,7 +78,7 @@ def test_a_split_in_only_one_view_is_left_to_the_stereo_checks():
     P = seam_curve("straight")
     views = with_bands(P, P + 0.75 * across(P), camera_poses(P))
     views[1] = dataclasses.replace(views[1], band_px=None, band_width_px=None)
-    out, record = band_or_core(views, 8.0)
+    out, record, _ = band_or_core(views, 8.0)
     assert out is views and record is None
     assert "band_reading" not in locate_seam(views).quality
 
@@ -88,8 +88,8 @@ def test_the_jobs_normal_is_the_reference_when_given():
     # purpose): the offset is then across it, and the core is kept. The job's normal is used.
     P = seam_curve("straight")
     views = with_bands(P + 1.5 * DOWN, P, camera_poses(P))
-    _, right = band_or_core(views, 8.0, normal=np.array([0.0, 0.0, 1.0]))
-    _, wrong = band_or_core(views, 8.0, normal=np.array([1.0, 0.0, 0.0]))
+    _, right, _ = band_or_core(views, 8.0, normal=np.array([0.0, 0.0, 1.0]))
+    _, wrong, _ = band_or_core(views, 8.0, normal=np.array([1.0, 0.0, 0.0]))
     assert right["reading"] == "band" and right["angle_deg"] < 5.0
     assert wrong["reading"] == "core" and wrong["angle_deg"] > 85.0
 

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from controller.stereo.match_views import ViewObservation, triangulate_views
+from controller.stereo.match_views import Triangulated, ViewObservation, triangulate_views
 from controller.stereo.view_geometry import nominal_normal_from_views
 
 F64 = NDArray[np.float64]
@@ -48,8 +48,11 @@ DECIDED_DEG = 30.0
 
 def band_or_core(views: list[ViewObservation], min_angle_deg: float, sample_px: float = 2.0,
                  normal: F64 | None = None
-                 ) -> tuple[list[ViewObservation], dict[str, Any] | None]:
-    """The views to locate with (the cores' or the whole bands' centrelines) and why (module doc).
+                 ) -> tuple[list[ViewObservation], dict[str, Any] | None, Triangulated | None]:
+    """The views to locate with (the cores' or the whole bands' centrelines), and why.
+
+    The third value is those views' triangulation where it was made here (the reading chosen,
+    or the cores), so that the caller does not make it again; None: not made.
 
     ``normal``: the sheet's normal in the base frame (the job's), None: minus the views' mean
     optical axis. Returns ``views`` unchanged and None unless every view carries a band
@@ -62,14 +65,14 @@ def band_or_core(views: list[ViewObservation], min_angle_deg: float, sample_px: 
     """
     band_px = [v.band_px for v in views]
     if len(views) < 2 or any(b is None for b in band_px):
-        return views, None
+        return views, None, None
     bands = [dataclasses.replace(v, seam_px=b, gap_width_px=v.band_width_px)
              for v, b in zip(views, band_px, strict=True) if b is not None]
     core = triangulate_views(views, min_angle_deg, sample_px)
     band = triangulate_views(bands, min_angle_deg, sample_px)
     Xc, Xb = core.X[core.ok], band.X[band.ok]
     if len(Xc) < 5 or len(Xb) < 5:
-        return views, {"reading": "core (not triangulated)"}
+        return views, {"reading": "core (not triangulated)"}, core
     _, nearest = cKDTree(Xb).query(Xc)
     d = Xb[nearest] - Xc
     tangent = np.gradient(Xc, axis=0)
@@ -89,4 +92,4 @@ def band_or_core(views: list[ViewObservation], min_angle_deg: float, sample_px: 
     record = {"reading": reading, "offset_mm": round(offset, 3),
               "along_normal_mm": round(along, 3), "across_mm": round(across, 3),
               "angle_deg": round(angle, 1)}
-    return (bands if reading == "band" else views), record
+    return (bands, record, band) if reading == "band" else (views, record, core)

@@ -104,7 +104,7 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     ``quality["band_reading"]``; ``normal``: the sheets' normal in the base frame from the job,
     None: from the views), or the seam is refused where it supports neither.
     """
-    views, band_reading = band_or_core(views, limits.min_angle_deg, sample_px, normal)
+    views, band_reading, tri = band_or_core(views, limits.min_angle_deg, sample_px, normal)
     if band_reading is not None and band_reading["reading"] == "undecided":
         raise TriangulationError(
             f"every view split the gap's dark band into a darker core and a lighter band, and "
@@ -114,7 +114,8 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
             f"joint's gap ([seam] gap_mm) and the sheets' normal ([seam] normal) in the job, "
             f"and see the overlays", band_reading=band_reading,
             views=[v.name for v in views])
-    tri = triangulate_views(views, limits.min_angle_deg, sample_px)
+    if tri is None:  # (the shadow-or-cut-face decision triangulated the reading it chose)
+        tri = triangulate_views(views, limits.min_angle_deg, sample_px)
     curves, ref_px, X, rms_gap, angle = tri.curves, tri.ref_px, tri.X, tri.rms_gap, tri.angle
     degenerate_any, n, V = tri.degenerate, len(tri.ref_px), len(views)
     T0 = np.asarray(views[0].T_base_cam, dtype=np.float64)
