@@ -143,7 +143,9 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
                     bands.append(r["band"])
                     kinds.append(tuple(said) if said and len(said) == 2 else None)
                 r.pop("points")
-            r.pop("width_px", None)
+            w = r.pop("width_px", None)
+            if name == "ours" and w is not None:
+                r["width_px"] = round(float(w), 2)  # the detected band's median width
             if r.pop("band", None) is not None:
                 r["split"] = True  # a shadow split off: the whole band's reading came along
             v[name] = single_view(r)
@@ -347,6 +349,33 @@ def by_way(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
     return dict(sorted(out.items()))
 
 
+#: Bins (px, detected median band width) of :func:`by_width`.
+WIDTH_BINS = (0.0, 3.0, 5.0, 8.0, 12.0, 16.0, float("inf"))
+
+
+def by_width(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, int]]:
+    """Our returned single views of the wide and pen sets per detected band width and part.
+
+    The width is the returned seam's median dark-band width (px, ``gap_width_px``): the wider
+    the band, the more room for a shadow, a cut face or a mark inside it beside the gap, and for
+    an end read a few px off; how far a returned seam can be trusted by its width.
+    """
+    counts: dict[tuple[str, int], dict[str, int]] = {}
+    for part, _, o in _our_single_views(rows):
+        if o["result"] not in ("found", "wrong") or o.get("width_px") is None:
+            continue
+        i = int(np.searchsorted(WIDTH_BINS, o["width_px"], side="right")) - 1
+        cell = counts.setdefault((part, i), {"returned": 0, "found": 0, "wrong": 0})
+        cell["returned"] += 1
+        cell[o["result"]] += 1
+    out = {}
+    for part, i in sorted(counts):
+        lo, hi = WIDTH_BINS[i], WIDTH_BINS[i + 1]
+        name = f"{lo:.0f}-{hi:.0f} px" if np.isfinite(hi) else f">= {lo:.0f} px"
+        out[f"{name}/{part}"] = counts[(part, i)]
+    return out
+
+
 def timing(images: list[np.ndarray], runs: int, cam: Any) -> dict[str, Any]:
     """Median ms of ours, the published port and cv2.Canny on the same images, alternating."""
     greys = [im if im.ndim == 2 else cv2.cvtColor(im, cv2.COLOR_BGR2GRAY) for im in images]
@@ -436,6 +465,7 @@ def main(argv: list[str] | None = None) -> int:
                         for split in splits},
         "by_look": by_look(rows),
         "by_way": by_way(rows),
+        "by_width": by_width(rows),
         "wrong_by_scene": wrong_by_scene(rows),
         "rows": rows}
     timing_imgs = [load_case(g[0])[0][0] for g in groups.values() if g][:6]
@@ -520,6 +550,8 @@ def markdown(rep: dict[str, Any]) -> str:
     for key, title, first, total, rest in (
             ("by_look", "per look (single views", "look", "views", ("refused", "wrong")),
             ("by_way", "per way (returned single views", "way", "returned", ("wrong",)),
+            ("by_width", "by the detected band's width (returned single views", "width",
+             "returned", ("wrong",)),
             ("wrong_by_scene", "by what the scene had (single views", "scene feature", "views",
              ("wrong",))):
         if rep.get(key):

@@ -70,3 +70,17 @@ def test_pair_summary_counts_the_clipped_pairs_and_old_reports_say_nothing() -> 
     assert bench_detect._clip_cell(s) == "2/3 (67 %) / 0 / 1"
     old = bench_detect.summarise([row("refused", None)], "ours")
     assert "pairs_clip_located" not in old and bench_detect._clip_cell(old) == "-"
+
+
+def test_returned_views_are_counted_by_the_detected_band_width() -> None:
+    def view(result: str, width: float | None) -> dict[str, Any]:
+        return {"ours": {"result": result, "width_px": width}}
+
+    rows = {"wide/easy/tuning": [{"family": "plain", "views": [
+        view("found", 2.0), view("wrong", 9.5), view("found", 8.0), view("refused", None)]}],
+        "wide/easy/heldout": [{"family": "plain", "views": [view("wrong", 30.0)]}],
+        "classic/easy/tuning": [{"family": "classic", "views": [view("found", 4.0)]}]}
+    out = bench_detect.by_width(rows)
+    assert out == {">= 16 px/heldout": {"returned": 1, "found": 0, "wrong": 1},
+                   "0-3 px/tuning": {"returned": 1, "found": 1, "wrong": 0},
+                   "8-12 px/tuning": {"returned": 2, "found": 1, "wrong": 1}}

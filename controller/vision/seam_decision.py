@@ -60,7 +60,7 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
             "drawn parallel to the joint looks like it; refusing to choose: give a --roi or a "
             "nominal seam hint", best_px=summary_px(best, x0, y0),
             second_px=summary_px(other, x0, y0), **details)
-    conf, reasons = rate_confidence(best, ratio)
+    conf, reasons = rate_confidence(best, ratio, p)
     if "open" in best.end_kinds or "covered" in best.end_kinds:
         # A point inside a sheet is never returned as an end, at any confidence threshold.
         raise SeamNotFound("best seam candidate fades out inside a sheet at one end (a joint "
@@ -121,8 +121,31 @@ def _line_beside(best: Candidate, others: list[Candidate],
     return None
 
 
-def rate_confidence(c: Candidate, ratio: float) -> tuple[float, list[str]]:
-    """Confidence 0..1 of ``c`` (``ratio``: next candidate's score over its own) and why."""
+#: A returned seam's confidence falls with its dark band's width, from this share of the widest
+#: gap the scale accepts (``max_gap_px``: 6 px at the defaults) on; by WIDE_SLOPE per such share
+#: (3 % per px at the defaults) down to WIDE_FLOOR. Why: the wider the band, the more room for
+#: a shadow, the far sheet's cut face or a ragged edge inside it, which one image cannot tell
+#: from the gap (README, *Confidence*): of the extended tuning part's returned seams (1000
+#: views, 2026-12-05), 4 % of those under 8 px were wrong and 32 % of those wider.
+WIDE_KNEE = 0.375
+WIDE_SLOPE = 0.48
+WIDE_FLOOR = 0.6
+
+
+def width_factor(width_px: float, p: DetectParams) -> float:
+    """Confidence factor (WIDE_FLOOR..1) of a dark band ``width_px`` wide (median, px)."""
+    share = width_px / max(p.max_gap_px, 1e-6)
+    return float(np.clip(1.0 - WIDE_SLOPE * (share - WIDE_KNEE), WIDE_FLOOR, 1.0))
+
+
+def rate_confidence(c: Candidate, ratio: float,
+                    p: DetectParams | None = None) -> tuple[float, list[str]]:
+    """Confidence 0..1 of ``c`` (``ratio``: next candidate's score over its own) and why.
+
+    ``p``: the detector's parameters, for the band width's factor (:func:`width_factor`;
+    default :class:`DetectParams`).
+    """
+    p = p or DetectParams()
     if c.way == "profiles":
         reasons = [f"thin dark valley {c.length_px:.0f} px long with a sheet on each side",
                    f"{100 * c.valid_frac:.0f} % of cross-profiles fit two gap edges",
@@ -134,6 +157,13 @@ def rate_confidence(c: Candidate, ratio: float) -> tuple[float, list[str]]:
                    f"relative gap depth {c.depth:.2f}"]
     conf = (min(1.0, c.valid_frac / 0.9) * min(1.0, c.depth / 0.4)
             * max(0.0, 1.0 - max(0.0, c.resid - 0.05) * 4) * (1.0 - 0.5 * ratio))
+    if c.width is not None and len(c.width):
+        w = float(np.median(c.width))
+        f = width_factor(w, p)
+        if f < 1.0:
+            conf *= f
+            reasons.append(f"dark band {w:.1f} px wide: a shadow or cut face inside it would "
+                           "move the gap's middle")
     n_open = sum(k == "open" for k in c.end_kinds)
     reasons.append(f"ends at: {c.end_kinds[0]}, {c.end_kinds[1]}")
     if n_open:
