@@ -116,7 +116,8 @@ def test_a_grid_line_of_the_table_is_not_returned_as_a_seam(
     # Without the grid check the grid line is a perfect seam: the blind spot this closes.
     monkeypatch.setattr(seam_detect, "mark_table_lines", lambda *a, **k: None)
     det = detect_seam(img, camera=default_camera())
-    assert det.confidence >= 0.9 and det.end_kinds == ("image_border", "image_border")
+    # (0.87: the width factor of its 10.5 px band; seam_decision.width_factor)
+    assert det.confidence >= 0.85 and det.end_kinds == ("image_border", "image_border")
 
 
 def test_a_piece_of_the_joint_stopped_by_a_tack_weld_keeps_a_slot_piece_from_winning() -> None:

@@ -23,6 +23,8 @@ from controller.vision.seam_robust import (
 from controller.vision.seam_track import _best_subpath
 
 REAL = shared_data_dir() / "real-seams"
+#: The defaults but for the confidence needed: for tests of where a wide gap's ends are read.
+_ENDS_ONLY = DetectParams(min_confidence=0.4)
 
 
 def _sheets(h=900, w=1200, seed=0):
@@ -119,7 +121,9 @@ def test_a_gap_ending_at_a_dark_table_is_not_carried_across_it_to_the_image_bord
     _blob(img, xx, yy, float(np.interp(250.0, np.arange(900), truth_x)), 250.0, 45.0)
     table = yy >= 720
     img[table] = 30.0 + np.random.default_rng(5).normal(0, 4, int(table.sum()))
-    det = detect_seam(np.clip(img, 0, 255).astype(np.uint8))
+    # Where the end is read, not how sure: an 18 px band's confidence is lowered for its width
+    # (seam_decision.width_factor) to 0.49 here, under the default 0.5.
+    det = detect_seam(np.clip(img, 0, 255).astype(np.uint8), params=_ENDS_ONLY)
     assert det.stats["way"] == "valley path"
     ends = det.endpoints_px[np.argsort(det.endpoints_px[:, 1])]
     assert list(det.end_kinds) == (["image_border", "joint_end"] if det.points_px[0, 1] < 450
@@ -312,5 +316,7 @@ def test_a_wide_gap_between_rounded_corners_is_ended_at_the_corners() -> None:
     from bench.detect_score import end_kinds_of, score_view
 
     img, truth, cam = _rendered_view(("wide", "medium", "tuning", 10027), 0)
-    det = detect_seam(img, camera=cam)
+    # At the default scale its 18.8 px band lowers the confidence to 0.45 (width_factor): refused
+    # unless the job states its gap (then found by the profiles at 0.83); the ends are the point.
+    det = detect_seam(img, camera=cam, params=_ENDS_ONLY)
     assert score_view(det.points_px, truth, end_kinds_of(det))["result"] == "found"
