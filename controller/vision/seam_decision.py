@@ -163,7 +163,8 @@ def rate_confidence(c: Candidate, ratio: float,
         if f < 1.0:
             conf *= f
             reasons.append(f"dark band {w:.1f} px wide: a shadow or cut face inside it would "
-                           "move the gap's middle")
+                           "move the gap's middle (with the working distance and the job's gap, "
+                           "detect --distance-mm Z --gap-mm LO HI, it is judged at that scale)")
     n_open = sum(k == "open" for k in c.end_kinds)
     reasons.append(f"ends at: {c.end_kinds[0]}, {c.end_kinds[1]}")
     if n_open:
