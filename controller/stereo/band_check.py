@@ -42,7 +42,8 @@ from controller.stereo.view_geometry import nominal_normal_from_views
 F64 = NDArray[np.float64]
 
 #: Largest angle (deg) between the readings' offset and the normal (a cut face) or the sheet (a
-#: shadow) that decides; in between, neither: refused. Halfway between the pure cases' 0 and 45.
+#: shadow) that decides; in between, neither: refused. The pure cases lie at 0 deg (a cut face)
+#: and 90 deg (a shadow) up to the normal's error; each is given a third of the quadrant.
 DECIDED_DEG = 30.0
 
 
