@@ -73,6 +73,32 @@ def test_an_end_cut_by_one_view_is_not_taken_from_the_other_alone():
     start, end = info.value.details["quality"]["ends"]
     assert start["status"] == "seen" and start["seen_by"] == ["view1", "view2"]
     assert end["status"] == "unseen" and end["seen_by"] == [] and end["ray_gap_mm"] == 0.0
+    # The 40 mm only view 1 sees lie outside view 2's image, not missed by it: the end's own rule
+    # refuses (or clips), not the share of the reference curve matched (80 % of it here).
+    assert "was matched between the views" not in msg
+    q = info.value.details["quality"]
+    assert q["coverage"] > 0.99 and abs(q["coverage_of_reference"] - 0.8) < 0.02
+    # A job that clips: the seam is what both views see, ending where view 2's image does.
+    seam = locate_seam(obs, nominal_region=(CENTRE, 150.0), clip_unseen_ends=True)
+    assert [e["status"] for e in seam.quality["ends"]] == ["seen", "clipped"]
+    assert 155.0 < seam.length_mm < 165.0
+    assert np.abs(seam.dense_points_mm[:, [0, 2]] - CENTRE[[0, 2]]).max() < 0.01
+
+
+def test_a_view_stopping_short_of_a_seen_end_still_counts_against_the_coverage():
+    # Both views say "joint end" at both ends, but view 2's curve stops 40 mm short of view 1's:
+    # a detection that stopped short, not the seam leaving an image. No end is unseen, so the
+    # unmatched stretch counts, and the seam is refused for it, clipping allowed or not.
+    P = long_seam(half_mm=100.0)
+    obs = observe(P, camera_poses(P), step=2)
+    uv = obs[1].seam_px
+    obs = [dataclasses.replace(obs[0], end_kinds=("joint_end", "joint_end")),
+           dataclasses.replace(obs[1], seam_px=uv[:len(uv) - int(0.2 * len(uv))],
+                               end_kinds=("joint_end", "joint_end"))]
+    with pytest.raises(TriangulationError, match="was matched between the views") as info:
+        locate_seam(obs, nominal_region=(CENTRE, 150.0), clip_unseen_ends=True)
+    q = info.value.details["quality"]
+    assert q["coverage"] == q["coverage_of_reference"] < 0.85
 
 
 def test_without_end_kinds_each_end_is_judged_by_its_own_last_pixel():

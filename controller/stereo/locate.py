@@ -22,6 +22,7 @@ from controller.stereo.seam_curve import arc_length, end_bend_mm, resample_curve
 from controller.stereo.seam_ends import (
     clip_to_region,
     judge_ends,
+    overlap_coverage,
     unseen_ends_problem,
     view_end_cut,
 )
@@ -154,7 +155,7 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     gap_mm = 2.0 * rms_gap[span] if V == 2 else rms_gap[span]
     in_span = np.zeros(n, dtype=bool)
     in_span[span] = True
-    coverage = float((s_ref[last] - s_ref[first]) / max(s_ref[-1], 1e-9))
+    coverage, coverage_ref = overlap_coverage(s_ref, first, last, ends)
     degenerate_fraction = float(np.mean(degenerate_any[span] & ~ok[span]))
     endpoint_gaps = [e["ray_gap_mm"] if e["status"] == "seen" else 0.0 for e in ends]
     cut = [f"{v.name} ({'start' if e == 0 else 'end'})" for v, c in zip(views, curves, strict=True)
@@ -163,6 +164,7 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         "views": V,
         "points_triangulated": int(ok.sum()),
         "coverage": coverage,
+        "coverage_of_reference": coverage_ref,
         "degenerate_fraction": degenerate_fraction,
         "ray_gap_mm_max": float(np.nanmax(gap_mm)),
         "ray_gap_mm_rms": float(np.sqrt(np.nanmean(gap_mm**2))),
@@ -229,8 +231,9 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
     problems = []
     if q["coverage"] < lim.min_coverage:
         problems.append(f"only {q['coverage']:.0%} of the seam was matched between the views "
-                        f"(limit {lim.min_coverage:.0%}): the views may not both see the whole "
-                        f"seam")
+                        f"(limit {lim.min_coverage:.0%}): where neither runs out of its image, "
+                        f"one view's curve stops short of the other's (a detection that stopped "
+                        f"early, or the views took different lines; see the overlays)")
     if q["degenerate_fraction"] > lim.max_degenerate_fraction:
         runs = _runs(degenerate)
         i0, i1 = max(runs, key=lambda r: r[1] - r[0]) if runs else (first, first + 1)

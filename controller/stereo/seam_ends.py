@@ -9,7 +9,10 @@ when the job allows it (``[seam] clip_unseen_ends``), the seam is clipped to the
 seam region there; ``quality["ends"]`` records which, per end.
 
 An end seen by only one view is not extended by that view's ray alone (no monocular depth): the
-3D seam ends where both views see it, and that end counts as unseen.
+3D seam ends where both views see it, and that end counts as unseen. The stretch of the reference
+view's curve beyond it lies outside another view's image: it does not count against the share of
+the curve the views matched (:func:`overlap_coverage`), whose limit is for views that see
+different lines, not for a seam leaving one image earlier than the other.
 """
 
 from __future__ import annotations
@@ -106,3 +109,23 @@ def unseen_ends_problem(unseen: list[dict[str, Any]]) -> str:
             f"longer than what would be welded. Move the views so that every end of the seam is "
             f"in the images, or let the job weld what the views see inside its nominal region "
             f"([seam] clip_unseen_ends = true)")
+
+
+def overlap_coverage(s_ref: F64, first: int, last: int,
+                     ends: list[dict[str, Any]]) -> tuple[float, float]:
+    """(share of the stereo overlap matched, share of the whole reference curve matched).
+
+    ``s_ref``: arc length (px) at each sample of the reference view's curve; ``first``, ``last``:
+    the first and last sample matched in the other views; ``ends``: :func:`judge_ends` of the
+    3D seam (start, end). Where no view sees an end (some view's curve runs out of its image
+    there), the reference curve's stretch beyond the last matched sample lies outside another
+    view's image, not missed by it: it is left out of the share. That end is refused or clipped
+    (``clip_unseen_ends``) by its own rule, and the stretch is never welded. Elsewhere an
+    unmatched stretch at an end counts against the share (the views may see different lines).
+    """
+    matched = float(s_ref[last] - s_ref[first])
+    total = float(s_ref[-1])
+    unseen = {e["end"] for e in ends if not e["seen_by"]}
+    lo = float(s_ref[first]) if "start" in unseen else 0.0
+    hi = float(s_ref[last]) if "end" in unseen else total
+    return matched / max(hi - lo, 1e-9), matched / max(total, 1e-9)
