@@ -115,3 +115,43 @@ def test_without_end_kinds_each_end_is_judged_by_its_own_last_pixel():
     assert start["not_seen"] == [] and start["ray_gap_mm"] < 0.5
     assert end["status"] == "unseen" and end["not_seen"] == [
         "view1: the seam runs out of the image", "view2: the seam runs out of the image"]
+
+
+def _bent_at_the_end(obs, px=4.0, samples=12):
+    """view 1's curve leaving the gap over its last ``samples`` points, ``px`` across at the end
+    (what a curve's last pixels cut by the image border can do)."""
+    uv = obs[0].seam_px.copy()
+    t = uv[-1] - uv[-2]
+    n = np.array([-t[1], t[0]]) / np.linalg.norm(t)
+    uv[-samples:] += np.outer(np.linspace(0.0, 1.0, samples) ** 2 * px, n)
+    return [dataclasses.replace(obs[0], seam_px=uv), obs[1]]
+
+
+def test_a_clipped_end_turning_off_course_at_the_border_is_cut_back_not_refused():
+    P = long_seam()
+    obs = with_kinds(observe(P, camera_poses(P), step=2), [("image_border",) * 2] * 2)
+    bent = _bent_at_the_end(obs, px=6.0, samples=6)  # view 1's last 12 px leave the gap
+    # A seen end that turns off its course is refused, as before.
+    with pytest.raises(TriangulationError, match="turns off its own course"):
+        locate_seam(with_kinds(bent, [("joint_end",) * 2] * 2), nominal_region=(CENTRE, 300.0))
+    # A clipped end is cut back off the image border first, and the turn goes with it.
+    seam = locate_seam(bent, nominal_region=(CENTRE, 300.0), clip_unseen_ends=True)
+    assert seam.quality["ends"][1]["border_trimmed_mm"] > 0.0
+    assert seam.quality["end_bend_mm"][1] <= 0.15  # (limit 0.5)
+    off = np.abs(seam.dense_points_mm[:, [0, 2]] - CENTRE[[0, 2]]).max()
+    assert off < 0.15
+
+
+def test_clipped_ends_keep_off_the_image_borders():
+    # Where the seam runs out of the images, a curve's last pixels are its least sure: a clipped
+    # end is cut back to where every view sees it border_margin_px (12) inside its image.
+    P = long_seam()
+    obs = with_kinds(observe(P, camera_poses(P), step=2), [("image_border",) * 2] * 2)
+    seam = locate_seam(obs, nominal_region=(CENTRE, 300.0), clip_unseen_ends=True)
+    for e in seam.quality["ends"]:
+        assert e["status"] == "clipped" and 0.5 < e["border_trimmed_mm"] < 5.0
+        assert e["clipped_mm"] == e["border_trimmed_mm"]  # the region (300 mm) cuts nothing
+    for v in obs:
+        uv = v.camera.project(seam.dense_points_mm, v.T_base_cam)
+        assert v.camera.in_image(uv, 11.9).all()
+        assert not v.camera.in_image(uv, 14.0).all()  # cut back no further than needed

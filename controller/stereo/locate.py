@@ -23,6 +23,7 @@ from controller.stereo.seam_ends import (
     clip_to_region,
     judge_ends,
     overlap_coverage,
+    trim_to_margin,
     unseen_ends_problem,
     view_end_cut,
 )
@@ -148,6 +149,8 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
     if unseen and clip_unseen_ends and limits.require_ends_in_view and nominal_region is not None:
         dense, kept = clip_to_region(dense, nominal_region, unseen)
         span = slice(first + kept[0], first + kept[1])
+        dense, kept = trim_to_margin(dense, views, unseen, limits.border_margin_px)
+        span = slice(span.start + kept[0], span.start + kept[1])
     reproj = np.full((V, len(dense)), np.nan)
     for k, v in enumerate(views):
         uv = v.camera.project(dense, v.T_base_cam)

@@ -102,6 +102,39 @@ def clip_to_region(dense: F64, region: tuple[F64, float],
     return dense[a:b], (a, b)
 
 
+def trim_to_margin(dense: F64, views: list[Any], clipped: list[dict[str, Any]],
+                   margin_px: float) -> tuple[F64, tuple[int, int]]:
+    """``dense`` (N, 3) mm cut back at its ``clipped`` ends to where every view sees it inside.
+
+    At an end no view sees, the seam runs to a view's image border, and a detected curve's last
+    pixels there are its least sure (its profiles and the sheets beside it are cut by the border,
+    the end is extrapolated to it): in the simulator's pairs the 3D error there grew to 1.3 mm
+    within a few px of a border, against 0.1-0.2 mm farther in. Each clipped end is cut back to
+    the first point that projects at least ``margin_px`` inside every view's image (the margin
+    within which a curve's end counts as cut by the border), the cut added to its
+    ``clipped_mm`` and recorded as ``border_trimmed_mm``. Seen ends are never cut. Returns the
+    points kept and their index range [start, stop) into ``dense``.
+    """
+    inside = np.ones(len(dense), dtype=bool)
+    for v in views:
+        inside &= v.camera.in_image(v.camera.project(dense, v.T_base_cam), margin_px)
+    a, b = 0, len(dense)
+    step = np.linalg.norm(np.diff(dense, axis=0), axis=1)
+    for e in clipped:
+        if e["end"] == "start":
+            while a < b - 2 and not inside[a]:
+                a += 1
+            cut = float(step[:a].sum())
+        else:
+            while b > a + 2 and not inside[b - 1]:
+                b -= 1
+            cut = float(step[b - 1:].sum())
+        if cut > 0.0:
+            e["border_trimmed_mm"] = cut
+            e["clipped_mm"] = float(e.get("clipped_mm", 0.0)) + cut
+    return dense[a:b], (a, b)
+
+
 def unseen_ends_problem(unseen: list[dict[str, Any]]) -> str:
     """The refusal for ends no view sees (the job does not allow clipping), naming the views."""
     parts = [f"its {e['end']} ({'; '.join(e['not_seen'])})" for e in unseen]
