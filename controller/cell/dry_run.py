@@ -313,7 +313,9 @@ def summary_text(rep: DryRunReport) -> str:
         ends = r.seam.quality.get("ends", [])
         if any(e["status"] != "seen" for e in ends):
             lines.append("  seam ends: " + "; ".join(
-                f"{e['end']} {e['status']}" + (f" ({e['clipped_mm']:.1f} mm cut; not seen: "
+                f"{e['end']} {e['status']}" + (f" ({e['clipped_mm']:.1f} mm cut, "
+                                                f"{e.get('border_trimmed_mm', 0.0):.1f} mm at the "
+                                                f"image borders; not seen: "
                                                 f"{', '.join(e['not_seen'])})"
                                                 if e["status"] == "clipped" else "")
                 for e in ends))

@@ -221,7 +221,8 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
     if clipped:
         log.warning("seam %s", "; ".join(
             f"{e['end']} not seen by any view ({'; '.join(e['not_seen'])}): clipped to the "
-            f"nominal region ({e['clipped_mm']:.1f} mm cut)" for e in clipped))
+            f"nominal region and off the image borders ({e['clipped_mm']:.1f} mm cut, "
+            f"{e.get('border_trimmed_mm', 0.0):.1f} mm of it at the borders)" for e in clipped))
     band = seam.quality.get("band_reading")
     if band is not None and band["reading"] == "band":
         log.info("the lighter part of the dark band beside the gap is a cut face inside it, not "

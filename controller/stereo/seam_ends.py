@@ -6,7 +6,9 @@ is *unseen* when the seam runs out of every image there, or out of the stereo ov
 cuts it at its border before the other view's joint end): nothing then says where the joint
 really ends, so the seam could be longer than what would be welded. Such an end is refused, or,
 when the job allows it (``[seam] clip_unseen_ends``), the seam is clipped to the job's nominal
-seam region there; ``quality["ends"]`` records which, per end.
+seam region there (:func:`clip_to_region`) and kept off the images' borders, where a curve's
+last pixels are its least sure (:func:`trim_to_margin`); ``quality["ends"]`` records which, per
+end.
 
 An end seen by only one view is not extended by that view's ray alone (no monocular depth): the
 3D seam ends where both views see it, and that end counts as unseen. The stretch of the reference
