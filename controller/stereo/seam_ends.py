@@ -88,18 +88,9 @@ def clip_to_region(dense: F64, region: tuple[F64, float],
     unseen end ``clipped`` with the length cut off (mm). Seen ends are never cut.
     """
     centre, radius = np.asarray(region[0], dtype=np.float64), float(region[1])
-    inside = np.linalg.norm(dense - centre, axis=1) <= radius
-    a, b = 0, len(dense)
-    step = np.linalg.norm(np.diff(dense, axis=0), axis=1)
-    for e in unseen:
-        if e["end"] == "start":
-            while a < b - 2 and not inside[a]:
-                a += 1
-            e["clipped_mm"] = float(step[:a].sum())
-        else:
-            while b > a + 2 and not inside[b - 1]:
-                b -= 1
-            e["clipped_mm"] = float(step[b - 1:].sum())
+    a, b, cuts = _cut_ends(dense, np.linalg.norm(dense - centre, axis=1) <= radius, unseen)
+    for e, cut in zip(unseen, cuts, strict=True):
+        e["clipped_mm"] = cut
         e["status"] = "clipped"
     return dense[a:b], (a, b)
 
@@ -120,21 +111,34 @@ def trim_to_margin(dense: F64, views: list[Any], clipped: list[dict[str, Any]],
     inside = np.ones(len(dense), dtype=bool)
     for v in views:
         inside &= v.camera.in_image(v.camera.project(dense, v.T_base_cam), margin_px)
-    a, b = 0, len(dense)
-    step = np.linalg.norm(np.diff(dense, axis=0), axis=1)
-    for e in clipped:
-        if e["end"] == "start":
-            while a < b - 2 and not inside[a]:
-                a += 1
-            cut = float(step[:a].sum())
-        else:
-            while b > a + 2 and not inside[b - 1]:
-                b -= 1
-            cut = float(step[b - 1:].sum())
+    a, b, cuts = _cut_ends(dense, inside, clipped)
+    for e, cut in zip(clipped, cuts, strict=True):
         if cut > 0.0:
             e["border_trimmed_mm"] = cut
             e["clipped_mm"] = float(e.get("clipped_mm", 0.0)) + cut
     return dense[a:b], (a, b)
+
+
+def _cut_ends(dense: F64, keep: NDArray[np.bool_],
+              ends: list[dict[str, Any]]) -> tuple[int, int, list[float]]:
+    """Index range [a, b) of ``dense`` (N, 3) mm with each of ``ends`` cut back to ``keep``.
+
+    Each named end ("start" or "end") loses its points up to the first one ``keep`` holds (at
+    least 2 points are kept). Also returns the length cut off at each of ``ends`` (mm).
+    """
+    a, b = 0, len(dense)
+    step = np.linalg.norm(np.diff(dense, axis=0), axis=1)
+    cuts = []
+    for e in ends:
+        if e["end"] == "start":
+            while a < b - 2 and not keep[a]:
+                a += 1
+            cuts.append(float(step[:a].sum()))
+        else:
+            while b > a + 2 and not keep[b - 1]:
+                b -= 1
+            cuts.append(float(step[b - 1:].sum()))
+    return a, b, cuts
 
 
 def unseen_ends_problem(unseen: list[dict[str, Any]]) -> str:
