@@ -39,6 +39,8 @@ def test_open_ends_clipped_or_refused(tmp_path, clip, scene):
         assert r.status == "done", r.reason
         assert [e["status"] for e in doc["seam_ends"]] == ["clipped", "clipped"]
         assert all("runs out of the image" in " ".join(e["not_seen"]) for e in doc["seam_ends"])
+        # The record says how much of each clipped end was cut at the image borders (kept 12 px in).
+        assert all(0.5 < e["border_trimmed_mm"] <= e["clipped_mm"] < 10.0 for e in doc["seam_ends"])
         assert rep.seam_rms_mm <= 0.1 and len(welds) == 1
     else:
         assert r.status == "fault"
