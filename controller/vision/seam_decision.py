@@ -121,13 +121,13 @@ def _line_beside(best: Candidate, others: list[Candidate],
     return None
 
 
-#: A returned seam's confidence falls with its dark band's width, from this share of the widest
-#: gap the scale accepts (``max_gap_px``: 6 px at the defaults) on; by WIDE_SLOPE per such share
-#: (3 % per px at the defaults) down to WIDE_FLOOR. Why: the wider the band, the more room for
-#: a shadow, the far sheet's cut face or a ragged edge inside it, which one image cannot tell
-#: from the gap (README, *Confidence and the band's width*): of the extended tuning part's
-#: returned seams (1000 views, 2026-12-05), 5 % of those under 8 px were wrong, 32 % of those
-#: wider (held-out part: 9 % and 29 %).
+#: A returned seam's confidence falls with its dark band's width, from WIDE_KNEE times the widest
+#: gap the scale accepts (``max_gap_px``; 6 of the defaults' 16 px) on, by WIDE_SLOPE per
+#: ``max_gap_px`` of width (3 % per px at the defaults), down to WIDE_FLOOR. Why: the wider the
+#: band, the more room for a shadow, the far sheet's cut face or a ragged edge inside it, which
+#: one image cannot tell from the gap (README, *Confidence and the band's width*): of the
+#: extended tuning part's returned seams (1000 views, 2026-12-05), 5 % of those under 8 px were
+#: wrong, 32 % of those wider (held-out part: 9 % and 29 %).
 WIDE_KNEE = 0.375
 WIDE_SLOPE = 0.48
 WIDE_FLOOR = 0.6
