@@ -19,6 +19,7 @@ from controller.vision.seam_border import Border, border_line, side_crossings, s
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_profiles import bilinear, fit_at
 from controller.vision.seam_resume import RESUME_RUN_PX, gap_resumes
+from controller.vision.seam_wedge import wedge_end
 
 
 def measure_tails(grey: NDArray[np.uint8], lut: F64, guides: list[F64], ders: list[F64],
@@ -204,7 +205,9 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
     corners. A border seen on one side of the gap only is where one plate ends, not the joint
     (a plate's outer edge at its corner), unless the other side steps there faintly
     (:func:`_other_side_ends`). When no line steps, the seam runs out of the image (the end is
-    the image border) or ends where the profiles stopped fitting.
+    the image border) or ends where the profiles stopped fitting. Where the gap opens out into
+    a wedge of table between two rounded corners
+    (:func:`controller.vision.seam_wedge.wedge_end`), the end is read off the wedge instead.
     """
     H, W = grey.shape
     nrm = np.array([-tang[1], tang[0]])
@@ -244,6 +247,13 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
         # again beyond? Asked before the sheets beside are read: a mark or a pen line 50 px
         # beside a tack weld steps where the sheets do not end.
         ahead = tang if chord is None else chord
+        # First, whether the gap opens out between two rounded corners here: their edges cross
+        # the lines beside the gap too gently to step (the end read open or unsure) or step
+        # late (read past the end), and the wedge of table beyond looks to the resume check
+        # like a wider stretch of the same gap.
+        kw = wedge_end(grey, lut, e_pt, tang, w_med)
+        if kw is not None:
+            return kw, "sheet border", None, outer_only
         beyond = gap_resumes(grey, lut, e_pt + k * tang, ahead, w_med,
                              _border_crossing(e_pt + k * tang, ahead, W, H, 0.0))
         if beyond is not None:
