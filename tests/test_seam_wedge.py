@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
+from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_wedge import wedge_end
 
@@ -134,3 +135,14 @@ def test_a_band_of_8_px_or_more_is_not_read_so():
     img, x_end = corners(8.0, 60.0, seed=8)
     assert wedge_end(img, LUT, np.array([x_end - 6.0, 300.0]), TANG, 8.0) is None
     assert wedge_end(img, LUT, np.array([x_end - 6.0, 300.0]), TANG, 7.5) is not None
+
+
+@pytest.mark.parametrize("gap,radius", [(2.0, 100.0), (3.0, 150.0), (4.0, 200.0)])
+def test_the_detector_returns_the_joint_ending_between_two_large_rounded_corners(gap, radius):
+    # The whole detector on a hairline to 4 px gap between corners of 100-200 px: the lines
+    # beside the gap read no end there (the end was called open, or covered: the wedge looked
+    # like more of the gap beyond a patch) and the seam was refused.
+    img, x_end = corners(gap, radius, seed=int(gap * 10) + 1)
+    det = detect_seam(img)
+    assert det.end_kinds == ("image_border", "joint_end")
+    assert abs(det.endpoints_px[1][0] - x_end) <= 2.0 and abs(det.endpoints_px[1][1] - 300) <= 1.0
