@@ -32,7 +32,7 @@ _SHEETS_PX = (-40.0, -8.0)  # where the sheets are read, along, before the point
 # wider dark band is often a gap with a shadow beside it (README, *Confidence and the band's
 # width*: 24-32 % of such returned seams were wrong), and the shadow runs on into the wedge's
 # table: on the extended tuning part, 6 of the first 10 wrong seams this reading added while it
-# was built had bands of 9-12 px (step shadows, shading beside the gap), 2 of the 21 it found.
+# was built had bands of 8.9-12 px (step shadows, shading beside the gap), 2 of the 19 it found.
 _MAX_BAND = 0.5
 
 
@@ -43,16 +43,17 @@ def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
     ``end_pt``: where the gap (median fitted width ``w_med`` px) was last followed; ``tang``:
     unit, pointing out of the seam. None for a band of 8 px or more (``_MAX_BAND``). Profiles
     across the seam every 2 px from 40 px before the point to ``reach = max(64, 8 w_med)`` px
-    past it, ``reach`` px to either side. Returns None unless they show a wedge of table between two rounded corners (:func:`_is_wedge`). The
-    gap's width is read where it was still whole (12-40 px before the point: the lower
-    quartile, for a large corner that has begun to open it) as its dark area (0 on the sheets,
-    1 on the table, summed: blur spreads an edge but keeps the area, so a hairline too faint to
-    pass half-way is read as well) or, from 4 px on, as the width of the region darker than
-    half-way (shading beside a wider gap adds area, not width); never wider than ``w_med``. It
-    must agree with ``w_med`` (0.5-1.3 times it: a band the profiles fitted much wider than its
-    dark area is a shadow or a cut face beside a narrower gap; one much narrower, a gap whose
-    floor is lighter than the table). The end is where the gap, read the same way, stays at
-    least twice that wide from then on (linear between profiles).
+    past it, ``reach`` px to either side. Returns None unless they show a wedge of table
+    between two rounded corners (:func:`_is_wedge`). The gap's width is read where it was
+    still whole (12-40 px before the point: the lower quartile, for a large corner that has
+    begun to open it) as its dark area (0 on the sheets, 1 on the table, summed: blur spreads
+    an edge but keeps the area, so a hairline too faint to pass half-way is read as well) or,
+    from 4 px on, as the width of the region darker than half-way (shading beside a wider gap
+    adds area, not width); never wider than ``w_med``. It must agree with ``w_med`` (0.5-1.3
+    times it: a band the profiles fitted much wider than its dark area is a shadow or a cut
+    face beside a narrower gap; one much narrower, a gap whose floor is lighter than the
+    table). The end is where the gap, read the same way, stays at least twice that wide from
+    then on (linear between profiles).
     """
     if w_med >= _MAX_BAND * DetectParams().max_gap_px:
         return None
