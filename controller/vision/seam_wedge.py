@@ -200,3 +200,42 @@ def _dark_area(val: F64, os_: F64, lo: F64, hi: F64, w_med: float,
         sel = (os_ >= a) & (os_ <= b)
         out[i] = float(np.sum(np.clip((level[sel] - val[i, sel]) / span[sel], 0.0, 1.0))) * 0.5
     return out
+
+
+def line_runs_on(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
+                 w_med: float) -> bool:
+    """Whether a dark line runs on from ``end_pt`` (px) along ``tang``, between the same sheets.
+
+    Where the gap (``w_med`` px) leads into a darker, wider line lying along it (a pen line
+    drawn on the joint), the line's dark end looks from the sheets beside the gap like the
+    table beyond a sheet border. Beyond a border the table is dark across the whole seam; beyond
+    the end of the gap under a line, profiles 8-48 px on find a dark band 1.5-30 px wide around
+    the centreline, of about one width (within 1.6 times its narrowest + 1 px), with the
+    sheets at their levels before the end (at least 70 % of them, read as in
+    :func:`wedge_end`) 4 px beyond its edges on both sides.
+    """
+    nrm = np.array([-tang[1], tang[0]])
+    sheets = _sheet_levels(grey, lut, end_pt, tang, nrm, w_med)
+    if sheets is None:
+        return False
+    ks = np.arange(8.0, 48.1, 4.0)
+    os_ = np.arange(-40.0, 40.01, 0.5)
+    pts = end_pt + ks[:, None, None] * tang + os_[None, :, None] * nrm
+    val, inside = bilinear(grey, lut, pts[..., 0].ravel(), pts[..., 1].ravel())
+    if not inside.all():
+        return False
+    val = val.reshape(len(ks), len(os_))
+    floor = float(np.median(val.min(axis=1)))
+    if floor >= 0.6 * min(sheets):
+        return False
+    lo, hi = _region_edges(val, os_, 0.5 * (floor + min(sheets)), w_med)
+    if not np.all(np.isfinite(lo)):
+        return False
+    width = hi - lo
+    if width.min() < 1.5 or width.max() > 30.0 or width.max() > 1.6 * width.min() + 1.0:
+        return False
+    for edge, level in ((lo - 4.0, sheets[0]), (hi + 4.0, sheets[1])):
+        side = np.array([np.interp(e, os_, row) for e, row in zip(edge, val, strict=True)])
+        if np.any(side < 0.7 * level):
+            return False
+    return True
