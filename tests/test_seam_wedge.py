@@ -146,26 +146,3 @@ def test_the_detector_returns_the_joint_ending_between_two_large_rounded_corners
     det = detect_seam(img)
     assert det.end_kinds == ("image_border", "joint_end")
     assert abs(det.endpoints_px[1][0] - x_end) <= 2.0 and abs(det.endpoints_px[1][1] - 300) <= 1.0
-
-
-def _pen_on_joint(width: float, cap_at: float = 600.0) -> np.ndarray:
-    """Sheets meeting along y = 300 (a 3 px gap); from ``cap_at`` on a dark pen line ``width``
-    px wide, with a round cap, drawn over the joint to x = 900; the sheets end at x = 950."""
-    m = _sheets(3.0)
-    cv2.line(m, (int((cap_at + width / 2) * S), 300 * S), (900 * S, 300 * S), 0, int(width * S))
-    m[:, 950 * S:] = 0
-    return m
-
-
-def test_a_dark_line_lying_on_from_the_gap_is_told_from_the_table_beyond_a_border():
-    from controller.vision.seam_wedge import line_runs_on
-    assert line_runs_on(_render(_pen_on_joint(10.0), 11), LUT, END, TANG, 3.0)
-    assert line_runs_on(_render(_pen_on_joint(20.0), 12), LUT, END, TANG, 3.0)
-    # The sheets' border with the table beyond, a gap across the seam's end (a T-corner): no
-    # line runs on.
-    m = _sheets(3.0)
-    m[:, 600 * S:] = 0
-    assert not line_runs_on(_render(m, 13), LUT, END, TANG, 3.0)
-    m = _sheets(3.0)
-    m[:, 600 * S:612 * S] = 0
-    assert not line_runs_on(_render(m, 15), LUT, END, TANG, 3.0)
