@@ -1,8 +1,9 @@
 """A gap opening out between two rounded plate corners (controller/vision/seam_wedge.py), told from
 what else can lie beyond where the gap stops fitting. Drawn images with exact area coverage (4x
-supersampled), blur and sensor noise: a horizontal gap along y = 300 ending (for the profiles)
-at x = 600, and beyond it (to the right) either the wedge of table between two rounded corners
-or something that is not one."""
+supersampled), blur and sensor noise, mixed in linear light: a horizontal gap along y = 300,
+read from a point on it (x = 600 unless a test says otherwise) toward +x, and beyond that
+point either the wedge of table between two rounded corners (from x = 700) or something that
+is not one."""
 
 import cv2
 import numpy as np

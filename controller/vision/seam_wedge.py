@@ -87,8 +87,9 @@ def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
     width = area
     if w_med >= 4.0:
         region = np.where(np.isfinite(lo), hi - lo, 0.0)
-        if np.percentile(region[before], 25) > 0.0:
-            width, gap = region, float(np.percentile(region[before], 25))
+        gap_region = float(np.percentile(region[before], 25))
+        if gap_region > 0.0:
+            width, gap = region, gap_region
     gap = min(gap, w_med)
     short = np.flatnonzero(width < 2.0 * gap)
     if not len(short) or short[-1] == len(ks) - 1 or ks[short[-1]] < -_BACK_PX + 8.0:
