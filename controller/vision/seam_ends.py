@@ -207,9 +207,7 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
     (:func:`_other_side_ends`). When no line steps, the seam runs out of the image (the end is
     the image border) or ends where the profiles stopped fitting. Where the gap opens out into
     a wedge of table between two rounded corners
-    (:func:`controller.vision.seam_wedge.wedge_end`), the end is read off the wedge instead;
-    where a border read so is the dark end of a line lying on from the gap (a pen line drawn on
-    the joint, :func:`controller.vision.seam_wedge.line_runs_on`), the gap is covered.
+    (:func:`controller.vision.seam_wedge.wedge_end`), the end is read off the wedge instead.
     """
     H, W = grey.shape
     nrm = np.array([-tang[1], tang[0]])

@@ -12,10 +12,8 @@ a dark line lying on from the gap (a pen line on the joint) keeps its width, a c
 table hole is left again, a plate's straight outer edge or a gap across the seam's end darkens a
 whole profile at once, one plate ending recedes on one side only, a perforated or shadowed table
 is no single level to read edges against. The end is where the gap has opened to twice its width
-(the renderer's rule for rounded corners, ``drivers/sim/sim_scene._corner_trim``).
-:func:`line_runs_on` reads the same kind of profiles for the other thing a border read from the
-sheets' side can be: the dark round end of a wider line drawn on the joint. Pixels are (u, v)
-in the distorted image; levels are linear radiance.
+(the renderer's rule for rounded corners, ``drivers/sim/sim_scene._corner_trim``). Pixels are
+(u, v) in the distorted image; levels are linear radiance.
 """
 
 from __future__ import annotations
