@@ -52,8 +52,8 @@ def corners(gap: float, radius: float, seed: int) -> tuple[np.ndarray, float]:
         ys = sorted((int(y_edge), int(cy)))
         m[ys[0]:ys[1], xc:] = 0
         cv2.circle(m, (xc, int(cy)), int(R), 255, -1)
-    # Both plates end at the far side of their corners: the table beyond.
-    m[:, xc + int(R):] = 0
+        # the sheet beyond the corner's quarter: gone (table)
+        m[ys[0]:ys[1], xc + int(R):] = 0
     # The gap has opened to twice its width where each edge has receded by gap / 2.
     x_end = 700 + np.sqrt(radius ** 2 - (radius - gap / 2) ** 2)
     return _render(m, seed), float(x_end) - 0.5 + 0.5 / S
@@ -147,45 +147,3 @@ def test_the_detector_returns_the_joint_ending_between_two_large_rounded_corners
     det = detect_seam(img)
     assert det.end_kinds == ("image_border", "joint_end")
     assert abs(det.endpoints_px[1][0] - x_end) <= 2.0 and abs(det.endpoints_px[1][1] - 300) <= 1.0
-
-
-def _pen_on_joint(width: float, cap_at: float = 600.0) -> np.ndarray:
-    """Sheets meeting along y = 300 (a 3 px gap); from ``cap_at`` on a dark pen line ``width``
-    px wide, with a round cap, drawn over the joint to x = 900; the sheets end at x = 950."""
-    m = _sheets(3.0)
-    cv2.line(m, (int((cap_at + width / 2) * S), 300 * S), (900 * S, 300 * S), 0, int(width * S))
-    m[:, 950 * S:] = 0
-    return m
-
-
-def test_a_dark_line_lying_on_from_the_gap_is_told_from_the_table_beyond_a_border():
-    from controller.vision.seam_wedge import line_runs_on
-    assert line_runs_on(_render(_pen_on_joint(10.0), 11), LUT, END, TANG, 3.0)
-    assert line_runs_on(_render(_pen_on_joint(20.0), 12), LUT, END, TANG, 3.0)
-    # The sheets' border with the table beyond, a gap across the seam's end (a T-corner): no
-    # line runs on.
-    m = _sheets(3.0)
-    m[:, 600 * S:] = 0
-    assert not line_runs_on(_render(m, 13), LUT, END, TANG, 3.0)
-    m = _sheets(3.0)
-    m[:, 600 * S:612 * S] = 0
-    assert not line_runs_on(_render(m, 15), LUT, END, TANG, 3.0)
-
-
-@pytest.mark.parametrize("width", [6.0, 10.0, 20.0])
-def test_a_pen_line_drawn_on_the_joint_is_no_wedge_read_from_up_to_55_px_before_it(width):
-    img = _render(_pen_on_joint(width), 17)
-    for x in (545.0, 560.0, 585.0, 595.0):
-        assert wedge_end(img, LUT, np.array([x, 300.0]), TANG, 3.0) is None
-
-
-@pytest.mark.parametrize("width", [10.0, 20.0])
-def test_the_gap_under_a_pen_line_is_covered_even_with_a_sheet_border_beside_it(width):
-    # The upper sheet ends 35 px above the joint from x = 620 on: the lines beside the joint
-    # cross a border there, which alone would make the pen line's round end a sheet border.
-    from controller.vision.seam_ends import end_offset
-    m = _pen_on_joint(width)
-    m[:265 * S, 620 * S:] = 0
-    img = _render(m, 18)
-    for x in (585.0, 590.0, 595.0):
-        assert end_offset(img, LUT, np.array([x, 300.0]), TANG, 3.0)[1] == "covered"

@@ -19,7 +19,7 @@ from controller.vision.seam_border import Border, border_line, side_crossings, s
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_profiles import bilinear, fit_at
 from controller.vision.seam_resume import RESUME_RUN_PX, gap_resumes
-from controller.vision.seam_wedge import line_runs_on, wedge_end
+from controller.vision.seam_wedge import wedge_end
 
 
 def measure_tails(grey: NDArray[np.uint8], lut: F64, guides: list[F64], ders: list[F64],
@@ -254,10 +254,6 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
         kw = wedge_end(grey, lut, e_pt, tang, w_med)
         if kw is not None:
             return kw, "sheet border", None, outer_only
-        if border and line_runs_on(grey, lut, e_pt + k * tang, tang, w_med):
-            # Not the table beyond a border: a dark line lying on from the gap (a pen line
-            # drawn on the joint) covers it, and the joint goes on under it.
-            return float(k), "covered", None, outer_only
         beyond = gap_resumes(grey, lut, e_pt + k * tang, ahead, w_med,
                              _border_crossing(e_pt + k * tang, ahead, W, H, 0.0))
         if beyond is not None:

@@ -96,8 +96,6 @@ def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
         return None  # never opens, or open where it was first read (that is no gap's core)
     j = int(short[-1])
     k_end = float(ks[j] + _STEP_PX * (2.0 * gap - width[j]) / (width[j + 1] - width[j]))
-    if k_end > reach - 24.0:
-        return None  # not seen opening on for long enough past it to be a wedge, not a line
     # The region reaches a profile's edge (one plate ended, the table beyond) only after that.
     at_edge = np.isfinite(lo) & ((-lo >= reach - 0.5) | (hi >= reach - 0.5))
     if np.any(at_edge & (ks <= k_end + _STEP_PX)):
@@ -159,11 +157,9 @@ def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float
     table inside it, from the point on, one level (its 10-90 % spread within 35 % of the
     sheets' contrast to it: holes of a perforated table, a shadow across it are not); each edge
     recedes steadily (never back by more than 1 px nor on by more than a quarter of ``reach``
-    from one profile to the next) and by at least ``max(3, w_med / 2)`` px in all; the region
-    does not keep one width (within 1.5 px) over the last 16 px while the sheets bound it on
-    both sides; and it still widens over the second half (by 4 px and half of what it widened
-    over the first): corners recede ever faster, a dark line lying on past the gap keeps its
-    width once its round end is passed.
+    from one profile to the next) and by at least ``max(3, w_med / 2)`` px in all; and the
+    region still widens over the second half (by 4 px and half of what it widened over the
+    first): corners recede ever faster, a dark line lying on past the gap keeps its width.
     """
     present = np.isfinite(lo)
     if not present[-1]:
@@ -178,25 +174,12 @@ def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float
             > 0.35 * (min(sheets) - float(np.median(inner)))):
         return False
     left, right = -lo[i0:], hi[i0:]
-    # Past a small corner the plates end and the table fills the profile: the edges are read
-    # up to there.
-    edge = np.flatnonzero((left >= reach - 0.5) | (right >= reach - 0.5))
-    cut = int(edge[0]) if len(edge) else len(left)
-    if cut < 4:
-        return False
-    for e in (left[:cut], right[:cut]):
+    for e in (left, right):
         step = np.diff(e)
         if np.any(step < -1.0) or np.any(step > 0.25 * reach) or e[-1] - e[0] < max(3.0,
                                                                                    w_med / 2):
             return False
     width = left + right
-    # A dark line lying on from the gap (a pen line drawn on the joint) widens over its round
-    # end and then keeps its width between the sheets; a wedge never stops opening while the
-    # sheets still bound it (past a small corner it reaches the profiles' ends instead).
-    last = width[-8:]
-    bounded = (left[-8:] < reach - 0.5) & (right[-8:] < reach - 0.5)
-    if bounded.all() and float(last.max() - last.min()) < 1.5:
-        return False
     mid = len(width) // 2
     return bool(width[-1] - width[mid] >= max(4.0, 0.5 * (width[mid] - width[0])))
 
@@ -218,42 +201,3 @@ def _dark_area(val: F64, os_: F64, lo: F64, hi: F64, w_med: float,
         sel = (os_ >= a) & (os_ <= b)
         out[i] = float(np.sum(np.clip((level[sel] - val[i, sel]) / span[sel], 0.0, 1.0))) * 0.5
     return out
-
-
-def line_runs_on(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
-                 w_med: float) -> bool:
-    """Whether a dark line runs on from ``end_pt`` (px) along ``tang``, between the same sheets.
-
-    Where the gap (``w_med`` px) leads into a darker, wider line lying along it (a pen line
-    drawn on the joint), the line's dark end looks from the sheets beside the gap like the
-    table beyond a sheet border. Beyond a border the table is dark across the whole seam; beyond
-    the end of the gap under a line, profiles 8-48 px on find a dark band 1.5-30 px wide around
-    the centreline, of about one width (within 1.6 times its narrowest + 1 px), with the
-    sheets at their levels before the end (at least 70 % of them, read as in
-    :func:`wedge_end`) 4 px beyond its edges on both sides.
-    """
-    nrm = np.array([-tang[1], tang[0]])
-    sheets = _sheet_levels(grey, lut, end_pt, tang, nrm, w_med)
-    if sheets is None:
-        return False
-    ks = np.arange(8.0, 48.1, 4.0)
-    os_ = np.arange(-40.0, 40.01, 0.5)
-    pts = end_pt + ks[:, None, None] * tang + os_[None, :, None] * nrm
-    val, inside = bilinear(grey, lut, pts[..., 0].ravel(), pts[..., 1].ravel())
-    if not inside.all():
-        return False
-    val = val.reshape(len(ks), len(os_))
-    floor = float(np.median(val.min(axis=1)))
-    if floor >= 0.6 * min(sheets):
-        return False
-    lo, hi = _region_edges(val, os_, 0.5 * (floor + min(sheets)), w_med)
-    if not np.all(np.isfinite(lo)):
-        return False
-    width = hi - lo
-    if width.min() < 1.5 or width.max() > 30.0 or width.max() > 1.6 * width.min() + 1.0:
-        return False
-    for edge, level in ((lo - 4.0, sheets[0]), (hi + 4.0, sheets[1])):
-        side = np.array([np.interp(e, os_, row) for e, row in zip(edge, val, strict=True)])
-        if np.any(side < 0.7 * level):
-            return False
-    return True
