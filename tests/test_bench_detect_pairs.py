@@ -84,3 +84,52 @@ def test_returned_views_are_counted_by_the_detected_band_width() -> None:
     assert out == {">= 16 px/heldout": {"returned": 1, "found": 0, "wrong": 1},
                    "0-3 px/tuning": {"returned": 1, "found": 1, "wrong": 0},
                    "8-12 px/tuning": {"returned": 2, "found": 1, "wrong": 1}}
+
+
+def test_a_view_ambiguous_with_a_candidate_for_the_other_view_is_paired_as_the_cycle_does(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # One view refused as ambiguous, its stronger candidate carried with the error
+    # (AmbiguousSeam.detection): the pair is located with it, as controller/cell/guidance.py's
+    # locate_views does; the view itself stays refused, as `seamguide detect` answers.
+    imgs = [np.zeros((4, 4), np.uint8), np.ones((4, 4), np.uint8)]
+    a, b = np.array([[1.0, 1.0], [9.0, 9.0]]), np.array([[2.0, 1.0], [8.0, 9.0]])
+    monkeypatch.setattr(bench_detect, "load_case", lambda case: (imgs, {"family": "plain"}))
+    monkeypatch.setattr(bench_detect, "view_truth", lambda z, i: {
+        "gap_px": 3.0, "end_kinds": ["joint_end", "joint_end"], "spans": [], "pens": []})
+    monkeypatch.setattr(bench_detect, "score_view", lambda pts, t, said: {"result": "found"})
+    monkeypatch.setattr(bench_detect, "scene_features", lambda case: {})
+    calls: list[list[np.ndarray]] = []
+
+    def fake_locate(z: Any, curves: list[np.ndarray], *args: Any, **kw: Any) -> dict[str, Any]:
+        calls.append(curves)
+        return {"result": "located", "rms_mm": 0.02}
+
+    monkeypatch.setattr(bench_detect, "_locate", fake_locate)
+
+    def detect(undecided_views: tuple[int, ...]) -> Any:
+        def fn(name: str, img: np.ndarray, cam: Any, params: Any = None) -> dict[str, Any]:
+            i = int(img[0, 0])
+            if name == "ours" and i in undecided_views:
+                return {"result": "refused", "error": "AmbiguousSeam: two seam candidates",
+                        "time_s": 0.1, "undecided": ([a, b][i], ("joint_end", "joint_end"),
+                                                     3.0, None)}
+            return {"result": "returned", "points": [a, b][i], "confidence": 0.9,
+                    "kinds": ["joint_end", "joint_end"], "width_px": 3.0, "band": None,
+                    "ambiguous": None, "time_s": 0.1}
+        return fn
+
+    monkeypatch.setattr(bench_detect, "_detect", detect((1,)))
+    row = bench_detect.run_case(("wide", "easy", "tuning", 1), cam=object())
+    assert row["views"][1]["ours"]["result"] == "refused"
+    assert "undecided" not in row["views"][1]["ours"]
+    assert row["pair"]["decided_by_views"] and row["pair_clip"]["decided_by_views"]
+    assert len(calls) == 2 and np.array_equal(calls[0][1], b)
+    s = bench_detect.summarise([row], "ours")
+    assert s["pairs_decided_by_views"]["located"] == 1
+    assert s["pairs_clip_decided_by_views"]["located"] == 1
+    # Both views ambiguous: nothing to decide with, as in the cycle.
+    calls.clear()
+    monkeypatch.setattr(bench_detect, "_detect", detect((0, 1)))
+    row = bench_detect.run_case(("wide", "easy", "tuning", 1), cam=object())
+    assert row["pair"]["result"] == "refused" and not row["pair"]["decided_by_views"]
+    assert calls == []
