@@ -95,14 +95,8 @@ def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None) -> dict[st
             band, ambiguous = None, None
             stats = {}
     except SeamguideError as err:
-        out = {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:600]}",
-               "time_s": time.perf_counter() - t0}
-        if isinstance(err, AmbiguousSeam) and err.detection is not None:
-            # The stronger candidate, for the other view to decide on (as the cycle does).
-            d = err.detection
-            out["undecided"] = (d.points_px, end_kinds_of(d), d.gap_width_px,
-                                None if d.band_px is None else (d.band_px, d.band_width_px))
-        return out
+        return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:600]}",
+                "time_s": time.perf_counter() - t0}
     except Exception as err:  # noqa: BLE001 - a crash is a result to count, not a stop
         return {"result": "crash", "error": f"{type(err).__name__}: {str(err)[:600]}",
                 "time_s": time.perf_counter() - t0}
@@ -133,7 +127,6 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
     widths: list[float | None] = []
     kinds: list[tuple[str, str] | None] = []
     bands: list[tuple[np.ndarray, float] | None] = []
-    undecided: list[int] = []
     for i, img in enumerate(imgs):
         truth = view_truth(z, i)
         truth["image_size"] = (img.shape[1], img.shape[0])
@@ -155,29 +148,17 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
                 r["width_px"] = round(float(w), 2)  # the detected band's median width
             if r.pop("band", None) is not None:
                 r["split"] = True  # a shadow split off: the whole band's reading came along
-            und = r.pop("undecided", None)
-            if name == "ours" and und is not None:
-                undecided.append(len(curves))
-                curves.append(und[0])
-                kinds.append(tuple(und[1]) if und[1] and len(und[1]) == 2 else None)
-                widths.append(und[2])
-                bands.append(und[3])
             v[name] = single_view(r)
         row["views"].append(v)
     if len(imgs) == 2:
-        # One view refused as ambiguous is decided by the other, as the cycle does
-        # (controller/cell/guidance.locate_views): its stronger candidate, if the 3D checks pass.
-        pairable = len(curves) == 2 and len(undecided) <= 1
-        row["pair"] = (_locate(z, curves, widths, kinds, cam, bands=bands) if pairable
+        row["pair"] = (_locate(z, curves, widths, kinds, cam, bands=bands) if len(curves) == 2
                        else {"result": "refused"})
-        row["pair"]["decided_by_views"] = bool(pairable and undecided)
         row["pair"]["ends_seen"] = all(k == "joint_end" for v in row["views"]
                                        for k in v["end_kinds"])
         # The same pair with a job that lets the seam be clipped to its nominal region where no
         # view sees an end ([seam] clip_unseen_ends): how long seams are welded.
         row["pair_clip"] = (_locate(z, curves, widths, kinds, cam, clip=True, bands=bands)
-                            if pairable else {"result": "refused"})
-        row["pair_clip"]["decided_by_views"] = row["pair"]["decided_by_views"]
+                            if len(curves) == 2 else {"result": "refused"})
     return row
 
 
@@ -253,10 +234,6 @@ def summarise(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
         out["pairs"] = len(pairs)
         for k in ("located", "partial", "wrong", "refused"):
             out[f"pairs_{k}"] = sum(p["result"] == k for p in pairs)
-        # Pairs where one view was ambiguous and the other decided (located / wrong).
-        out["pairs_decided_by_views"] = {k: sum(p.get("decided_by_views", False)
-                                                and p["result"] == k for p in pairs)
-                                         for k in ("located", "partial", "wrong")}
         seen = [p for p in pairs if p["ends_seen"]]
         out["pairs_ends_seen"] = len(seen)
         out["pairs_ends_seen_located"] = sum(p["result"] == "located" for p in seen)
@@ -269,9 +246,6 @@ def summarise(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
         if clip:
             for k in ("located", "partial", "wrong"):
                 out[f"pairs_clip_{k}"] = sum(p["result"] == k for p in clip)
-            out["pairs_clip_decided_by_views"] = {
-                k: sum(p.get("decided_by_views", False) and p["result"] == k for p in clip)
-                for k in ("located", "partial", "wrong")}
     return out
 
 

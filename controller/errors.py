@@ -76,16 +76,9 @@ class SeamNotFound(SeamguideError):
 
 
 class AmbiguousSeam(SeamguideError):
-    """Two or more seam candidates of similar strength: refusing to choose.
-
-    ``detection``: where other views may decide (the rival is no seam the detector would
-    return, ``controller.vision.seam_decision.undecided``), the stronger candidate as a
-    ``SeamDetection``; else None.
-    """
+    """Two or more seam candidates of similar strength: refusing to choose."""
 
     exit_code = 10
-    undecided: Any = None
-    detection: Any = None
 
 
 class TriangulationError(SeamguideError):

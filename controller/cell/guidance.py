@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.cell.job import Job
-from controller.errors import AmbiguousSeam, SeamguideError
+from controller.errors import SeamguideError
 from controller.geometry.camera_model import CameraModel
 from controller.geometry.kinematics import RobotModel, irb2400
 from controller.geometry.poses import Pose
@@ -168,14 +168,12 @@ def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSetting
 
 
 def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
-                 detector: Detector | None = None, keep_undecided: bool = False) -> list[Any]:
+                 detector: Detector | None = None) -> list[Any]:
     """The seam in each view (in view order), inside the nominal region's box when there is one.
 
     Two views at a time (:func:`detect_seams`), each with its own camera model and the pixel
     scales of its working distance (:func:`view_params`). Raises what the detector raises (seam
-    not found, ambiguous seam), the message starting with the view's name; with
-    ``keep_undecided``, a view refused as ambiguous whose stronger candidate other views may
-    decide on is returned as its :class:`AmbiguousSeam` (:func:`detect_seams`).
+    not found, ambiguous seam), the message starting with the view's name.
     """
     from controller.vision.seam_detect import detect_seams
 
@@ -185,8 +183,7 @@ def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
     params = [view_params(v.camera, v.T_base_cam, settings, roi)
               for v, roi in zip(views, rois, strict=True)]
     return detect_seams([v.image for v in views], camera=[v.camera for v in views], rois=rois,
-                        detector=detector, names=[v.name for v in views], params=params,
-                        keep_undecided=keep_undecided)
+                        detector=detector, names=[v.name for v in views], params=params)
 
 
 def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
@@ -200,11 +197,7 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
     are kept when locating fails); ``note`` is told ``view_layout_warning=...`` about views
     rolled alike (also logged), ``seam_ends=...``, how each end of the seam was seen, and
     ``band_reading=...`` where every view split a shadow off the gap (which reading was kept);
-    ``check`` runs between the steps (timeouts, aborts). One view refused as ambiguous, where
-    its rival is no seam the detector would return, is decided by the others: its stronger
-    candidate is taken if the seam it gives passes every 3D check (``note`` is told
-    ``decided_by_views=...``), else the view's ambiguity is raised with why it was not
-    confirmed. Raises :class:`SeamguideError`
+    ``check`` runs between the steps (timeouts, aborts). Raises :class:`SeamguideError`
     subclasses: seam not found or ambiguous in a view, triangulation quality, seam outside the
     nominal region.
     """
@@ -213,35 +206,16 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
         log.warning("%s", warning)
         if note is not None:
             note(view_layout_warning=warning)
-    found = detect_views(views, settings, detector, keep_undecided=True)
-    undecided = [d for d in found if isinstance(d, AmbiguousSeam)]
-    if undecided and len(undecided) > 1:
-        raise undecided[0]  # nothing to decide with: every other view is as unsure
-    detections = [d.detection if isinstance(d, AmbiguousSeam) else d for d in found]
+    detections = detect_views(views, settings, detector)
     if on_detections is not None:
         on_detections(detections)
     if check is not None:
         check()
     observations = [observation(v, d) for v, d in zip(views, detections, strict=True)]
-    try:
-        seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
-                           count=settings.count, nominal_region=settings.nominal_region,
-                           clip_unseen_ends=settings.clip_unseen_ends,
-                           normal=None if settings.normal is None else np.asarray(settings.normal))
-    except SeamguideError as err:
-        if not undecided:
-            raise
-        # The other views did not confirm the stronger candidate: the view stays ambiguous.
-        amb = undecided[0]
-        raise AmbiguousSeam(f"{amb}; the other views do not confirm its stronger candidate "
-                            f"({err})", **{**amb.details, "not_confirmed": str(err)}) from err
-    if undecided:
-        chosen = {"view": undecided[0].details.get("view"), "ambiguity": str(undecided[0])}
-        log.info("%s: of two candidates of similar strength, the stronger (its rival is no "
-                 "seam the detector would return) is the one the other views confirm in 3D",
-                 chosen["view"])
-        if note is not None:
-            note(decided_by_views=chosen)
+    seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
+                       count=settings.count, nominal_region=settings.nominal_region,
+                       clip_unseen_ends=settings.clip_unseen_ends,
+                       normal=None if settings.normal is None else np.asarray(settings.normal))
     ends = seam.quality.get("ends", [])
     clipped = [e for e in ends if e["status"] == "clipped"]
     if clipped:

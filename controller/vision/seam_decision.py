@@ -46,14 +46,11 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
         what = ("two seam candidates of similar strength" if ratio <= 1.0 else
                 "a line stronger than the best seam candidate, rejected for how it ends or "
                 f"how wide it is ({second.why_rejected})")
-        err = AmbiguousSeam(
+        raise AmbiguousSeam(
             f"{what} (score {best.score:.0f} vs {second.score:.0f}, ratio {ratio:.2f}); "
             "refusing to choose: give a --roi or a nominal seam hint",
             best_px=summary_px(best, x0, y0),
             second_px=summary_px(second, x0, y0), **details)
-        err.undecided = undecided(best, second, ratio, p)
-        err.details["other_views_decide"] = err.undecided is not None
-        raise err
     beside = _line_beside(best, good[1:], p)
     if beside is not None:
         other, dist = beside
@@ -72,30 +69,6 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
     if conf < p.min_confidence:
         raise SeamNotFound(f"best seam candidate too weak (confidence {conf:.2f}): "
                            + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
-    return best, ratio, conf, reasons
-
-
-def undecided(best: Candidate, second: Candidate, ratio: float,
-              p: DetectParams) -> tuple[Candidate, float, float, list[str]] | None:
-    """``best`` with its confidence and reasons where other views may decide for it, else None.
-
-    Only where the rival is no seam this detector would return (rejected for how it ends or how
-    wide it is, kept as a rival because it may be a joint whose end was misread) and no stronger
-    than ``best`` (``ratio`` <= 1), and ``best`` would be returned without it: both ends
-    returnable, confident enough with no rival. One image cannot tell them apart; the cycle
-    triangulates ``best`` with the other views' seams and takes it only if every 3D check
-    passes (:func:`controller.cell.guidance.locate_views`). The confidence is the one with the
-    rival counted.
-    """
-    if not second.why_rejected or ratio > 1.0:
-        return None
-    if any(k in ("open", "covered") or k.startswith("unsure") for k in best.end_kinds):
-        return None
-    if rate_confidence(best, 0.0, p)[0] < p.min_confidence:
-        return None
-    conf, reasons = rate_confidence(best, ratio, p)
-    reasons.append(f"a rival line as strong, rejected for: {second.why_rejected}; one image "
-                   "cannot choose, the other views decide")
     return best, ratio, conf, reasons
 
 

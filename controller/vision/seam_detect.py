@@ -58,7 +58,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controller.errors import AmbiguousSeam, InputError, SeamguideError, SeamNotFound
+from controller.errors import InputError, SeamguideError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
 from controller.vision.seam_coarse import (
@@ -206,14 +206,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     def decide(cands: list[Candidate]) -> tuple[Candidate, float, float, list[str]]:
         if trace is not None:
             trace.append(list(cands))
-        try:
-            return choose(cands, p, details, (x0, y0))
-        except AmbiguousSeam as err:
-            # The stronger candidate, for other views to decide on (seam_decision.undecided).
-            if err.undecided is not None:
-                best, ratio, conf, reasons = err.undecided
-                err.detection = _detection(best, ratio, conf, reasons, cands, x0, y0)
-            raise
+        return choose(cands, p, details, (x0, y0))
 
     try:
         best, ratio, conf, reasons = decide(cands)
@@ -356,8 +349,7 @@ def detect_seams(images: list[NDArray[Any]], *,
                  rois: list[tuple[int, int, int, int] | None] | None = None,
                  detector: Any = None,
                  names: Sequence[str] | None = None,
-                 params: Sequence[DetectParams | None] | None = None,
-                 keep_undecided: bool = False) -> list[Any]:
+                 params: Sequence[DetectParams | None] | None = None) -> list[SeamDetection]:
     """:func:`detect_seam` on several views at once, one thread per view (at most 2 at a time).
 
     NumPy and OpenCV release the GIL for most of the work, so two views take about 0.6-0.8 of
@@ -368,9 +360,6 @@ def detect_seams(images: list[NDArray[Any]], *,
     view's error is raised as the same error type whose message starts with ``NAME: `` and whose
     details hold ``view=NAME``. ``params``: one :class:`DetectParams` per view (None: the
     detector's defaults, and no ``params`` argument is passed to a replacement ``detector``).
-    ``keep_undecided``: a view refused as ambiguous whose error carries the stronger candidate
-    for other views to decide on (:class:`AmbiguousSeam` ``detection``) is returned as that
-    (named) error instead of raised; the caller decides.
     """
     from concurrent.futures import ThreadPoolExecutor
 
@@ -384,17 +373,14 @@ def detect_seams(images: list[NDArray[Any]], *,
                          f"{len(cams)} cameras, {len(prms)} parameter sets and "
                          f"{len(names or images)} names")
 
-    def one(i: int) -> Any:
+    def one(i: int) -> SeamDetection:
         extra: dict[str, Any] = {} if prms[i] is None else {"params": prms[i]}
         try:
-            return fn(images[i], camera=cams[i], roi=rois[i], **extra)
+            return fn(images[i], camera=cams[i], roi=rois[i], **extra)  # type: ignore[no-any-return]
         except SeamguideError as err:
-            named = err if names is None else named_error(err, names[i])
-            if keep_undecided and isinstance(named, AmbiguousSeam) and named.detection is not None:
-                return named
-            if named is err:
+            if names is None:
                 raise
-            raise named from err
+            raise named_error(err, names[i]) from err
 
     if len(images) < 2:
         return [one(i) for i in range(len(images))]
@@ -409,9 +395,6 @@ def named_error(err: SeamguideError, name: str) -> SeamguideError:
     if msg.startswith(f"{name}:"):
         return err
     try:
-        named = type(err)(f"{name}: {msg}", **{**err.details, "view": name})
+        return type(err)(f"{name}: {msg}", **{**err.details, "view": name})
     except TypeError:  # an error type with its own constructor: keep it as it is
         return err
-    if isinstance(err, AmbiguousSeam) and isinstance(named, AmbiguousSeam):
-        named.detection = err.detection
-    return named
