@@ -1,15 +1,16 @@
-"""An end called the image border must show the gap running on to the image's edge.
+"""An end called the image border beyond which the sheets end is a sheet border, not the image's.
 
 A seam that leaves the image is returned with an ``image_border`` end where its centreline last
 fitted, up to a profile's length inside the image. But the end rules also call an end the image
-border where something stops the gap close to the edge and nothing beyond can be read (a step
-within ``seam_ends._VERIFY_PX`` of the edge: a tack weld, a sheet border near the edge). On the
-simulator's extended tuning part every seam returned with such an end more than 12 px inside
-the image was wrong (README, *A lead, not built*); on the real photographs the gap visibly runs
-on to the edge from ends 12-20 px inside it. So between the end and the edge the gap must be
-seen: a valley, the centre darker than both sides, on at least a third of the profiles across
-the seam's course. Where it is not, the line stops before the edge: the candidate is rejected
-(it stays a rival: it may be the seam with its end misread).
+border where something stops the gap close to the edge and nothing beyond it can be read (a step
+within ``seam_ends._VERIFY_PX`` of the edge). That is right for a tack weld over the joint at
+the edge (the seam leaves the image under it: the dry run's ``tack_open`` seams) and wrong for a
+sheet border near the edge (README, *A lead, not built*: every seam returned with such an end
+more than 12 px inside the image on the simulator's extended tuning part was wrong). Between
+the end and the edge the two differ: beyond a sheet border lies the table, no gap and darker
+than the sheets; over a tack weld the bead or the sheets go on. An end more than 8 px inside
+the image whose way to the edge shows the gap on under a third of its profiles and lies over a
+dark table is rejected (it stays a rival: it may be the seam with its end misread).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_ends import _border_crossing
+from controller.vision.seam_ends import _border_crossing, darker_than_sheets
 from controller.vision.seam_params import F64, Candidate
 from controller.vision.seam_profiles import bilinear
 
@@ -34,13 +35,15 @@ _TANGENT_PX = 30.0
 
 
 def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: float
-                     ) -> tuple[float, float | None]:
-    """(distance px, share) from the last point of ``pts`` (K, 2 px, in order) to the image edge.
+                     ) -> tuple[float, float | None, bool]:
+    """(distance px, share, over the table) from the last point of ``pts`` to the image edge.
 
-    The course is the chord over the last 30 px of ``pts``, carried straight on; profiles every
-    2 px from 2 px past the end to 1 px before the edge, each ``width_px`` / 2 + 8 px to either
-    side. ``share``: of the profiles wholly inside the image, those that show the gap
-    (:data:`DIP`); None where there are none.
+    ``pts``: (K, 2) px in order. The course is the chord over the last 30 px of ``pts``, carried
+    straight on; profiles every 2 px from 2 px past the end to 1 px before the edge, each
+    ``width_px`` / 2 + 8 px to either side. ``share``: of the profiles wholly inside the image,
+    those that show the gap (:data:`DIP`); None where there are none. ``over the table``: the
+    brighter side of those profiles is darker than the sheets 10-40 px before the end, as
+    :func:`controller.vision.seam_ends.darker_than_sheets` judges a dark table.
     """
     H, W = grey.shape
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
@@ -54,26 +57,34 @@ def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: floa
     core, left, right = np.abs(os_) <= w / 2 + 1.0, os_ <= -(w / 2 + 4.0), os_ >= w / 2 + 4.0
     # The profile averaged over 2 px before its darkest point is taken: the minimum of single
     # samples finds a dip in the noise of a dark table.
-    box = np.ones(4)  # 2 px
-    box /= box.sum()
-    seen = []
-    for k in np.arange(_STEP_PX, dist - 1.0, _STEP_PX):
+    box = np.ones(4) / 4.0
+    seen: list[bool] = []
+    brighter: list[F64] = []
+    sheets: list[float] = []
+    ks = np.concatenate([np.arange(_STEP_PX, dist - 1.0, _STEP_PX), -np.arange(10.0, 41.0, 2.0)])
+    for k in ks:
         q = pts[-1] + k * tang + np.outer(os_, nrm)
         val, inside = bilinear(grey, lut, q[:, 0], q[:, 1])
         if not inside.all():
             continue
-        side = min(float(np.median(val[left])), float(np.median(val[right])))
-        smooth = np.convolve(val, box, mode="same")
-        seen.append(float(smooth[core].min()) < DIP * side)
-    return dist, (float(np.mean(seen)) if seen else None)
+        lo, hi = sorted((float(np.median(val[left])), float(np.median(val[right]))))
+        if k < 0:
+            sheets.append(lo)
+            continue
+        brighter.append(val[left] if float(np.median(val[left])) >= hi else val[right])
+        seen.append(float(np.convolve(val, box, mode="same")[core].min()) < DIP * lo)
+    over_table = bool(brighter and sheets
+                      and darker_than_sheets(np.concatenate(brighter), float(np.median(sheets))))
+    return dist, (float(np.mean(seen)) if seen else None), over_table
 
 
 def reject_ends_short_of_edge(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate]) -> None:
-    """Reject (as rivals) candidates with an image-border end the gap is not seen to leave from.
+    """Reject (as rivals) candidates with an image-border end beyond which the sheets end.
 
     ``grey``: the image searched (ROI px, as the candidates' points). An ``"image border"`` end
-    more than :data:`EDGE_CHECK_PX` inside the image must show the gap on at least
-    :data:`SEEN_SHARE` of the profiles between it and the edge (:func:`gap_seen_to_edge`).
+    more than :data:`EDGE_CHECK_PX` inside the image, where the way to the edge shows the gap on
+    fewer than :data:`SEEN_SHARE` of its profiles and lies over a dark table
+    (:func:`gap_seen_to_edge`), is a sheet border read as the image's.
     """
     for c in cands:
         pts = c.points if c.points is not None else c.polyline
@@ -83,11 +94,13 @@ def reject_ends_short_of_edge(grey: NDArray[np.uint8], lut: F64, cands: list[Can
         for end, kind in enumerate(c.end_kinds):
             if kind != "image border":
                 continue
-            dist, share = gap_seen_to_edge(grey, lut, pts if end == 1 else pts[::-1], w)
-            if dist > EDGE_CHECK_PX and share is not None and share < SEEN_SHARE:
+            dist, share, over_table = gap_seen_to_edge(grey, lut,
+                                                       pts if end == 1 else pts[::-1], w)
+            if (dist > EDGE_CHECK_PX and share is not None and share < SEEN_SHARE
+                    and over_table):
                 c.why_rejected = (f"its end at the image border lies {dist:.0f} px inside the "
-                                  f"image and the gap is seen on only {100 * share:.0f} % of the "
-                                  "way to the edge: the line stops before it (a tack weld, a "
-                                  "sheet border near the edge) or is not the seam")
+                                  f"image, and the {dist:.0f} px to the edge show the table, not "
+                                  f"the gap (seen on {100 * share:.0f} % of them): the sheets end "
+                                  "there, or the line is not the seam")
                 c.rival = True
                 break
