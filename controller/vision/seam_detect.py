@@ -76,7 +76,7 @@ from controller.vision.seam_decision import (
     public_end_kinds,
     spans_of,
 )
-from controller.vision.seam_edge_ends import reject_ends_short_of_edge
+from controller.vision.seam_edge_ends import correct_edge_ends
 from controller.vision.seam_parallel import no_parallel_valley
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_pattern import mark_table_lines, straight_lines, straightener
@@ -205,7 +205,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
 
     def decide(cands: list[Candidate]) -> tuple[Candidate, float, float, list[str]]:
-        reject_ends_short_of_edge(sub, lut, cands)
+        correct_edge_ends(sub, lut, cands)
         if trace is not None:
             trace.append(list(cands))
         return choose(cands, p, details, (x0, y0))

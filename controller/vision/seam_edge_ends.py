@@ -10,7 +10,7 @@ more than 12 px inside the image on the simulator's extended tuning part was wro
 the end and the edge the two differ: beyond a sheet border lies the table, no gap and darker
 than the sheets; over a tack weld the bead or the sheets go on. An end more than 8 px inside
 the image whose way to the edge shows the gap on under a third of its profiles and lies over a
-dark table is rejected (it stays a rival: it may be the seam with its end misread).
+dark table is a sheet border (``joint_end``) at the step the end rules stopped at.
 """
 
 from __future__ import annotations
@@ -78,29 +78,27 @@ def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: floa
     return dist, (float(np.mean(seen)) if seen else None), over_table
 
 
-def reject_ends_short_of_edge(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate]) -> None:
-    """Reject (as rivals) candidates with an image-border end beyond which the sheets end.
+def correct_edge_ends(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate]) -> None:
+    """Call a sheet border what was read as the image border with the table beyond it.
 
     ``grey``: the image searched (ROI px, as the candidates' points). An ``"image border"`` end
     more than :data:`EDGE_CHECK_PX` inside the image, where the way to the edge shows the gap on
     fewer than :data:`SEEN_SHARE` of its profiles and lies over a dark table
-    (:func:`gap_seen_to_edge`), is a sheet border read as the image's.
+    (:func:`gap_seen_to_edge`), is where the sheets end: its kind becomes ``"sheet border"``
+    (``joint_end``), the point stays (the step the end rules stopped at).
     """
     for c in cands:
         pts = c.points if c.points is not None else c.polyline
         if c.why_rejected or pts is None or len(pts) < 3:
             continue
         w = float(np.median(c.width)) if c.width is not None and len(c.width) else 3.0
-        for end, kind in enumerate(c.end_kinds):
+        kinds = list(c.end_kinds)
+        for end, kind in enumerate(kinds):
             if kind != "image border":
                 continue
             dist, share, over_table = gap_seen_to_edge(grey, lut,
                                                        pts if end == 1 else pts[::-1], w)
             if (dist > EDGE_CHECK_PX and share is not None and share < SEEN_SHARE
                     and over_table):
-                c.why_rejected = (f"its end at the image border lies {dist:.0f} px inside the "
-                                  f"image, and the {dist:.0f} px to the edge show the table, not "
-                                  f"the gap (seen on {100 * share:.0f} % of them): the sheets end "
-                                  "there, or the line is not the seam")
-                c.rival = True
-                break
+                kinds[end] = "sheet border"
+        c.end_kinds = (kinds[0], kinds[1])
