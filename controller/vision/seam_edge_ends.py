@@ -5,7 +5,7 @@ fitted, up to a profile's length inside the image. But the end rules also call a
 border where something stops the gap close to the edge and nothing beyond it can be read (a step
 within ``seam_ends._VERIFY_PX`` of the edge). That is right for a tack weld over the joint at
 the edge (the seam leaves the image under it: the dry run's ``tack_open`` seams) and wrong for a
-sheet border near the edge (README, *A lead, not built*: every seam returned with such an end
+sheet border near the edge (README, *A lead, built since*: every seam returned with such an end
 more than 12 px inside the image on the simulator's extended tuning part was wrong). Between
 the end and the edge the two differ: beyond a sheet border lies the table, no gap and darker
 than the sheets; over a tack weld the bead or the sheets go on. An end more than 8 px inside
