@@ -118,3 +118,14 @@ class CycleAborted(SeamguideError):
     """The weld cycle was aborted by the operator or by a shutdown request."""
 
     exit_code = 16
+
+
+def named_error(err: SeamguideError, name: str) -> SeamguideError:
+    """``err`` as the same error type, its message starting with ``NAME: `` (details + view)."""
+    msg = str(err)
+    if msg.startswith(f"{name}:"):
+        return err
+    try:
+        return type(err)(f"{name}: {msg}", **{**err.details, "view": name})
+    except TypeError:  # an error type with its own constructor: keep it as it is
+        return err

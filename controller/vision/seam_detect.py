@@ -58,7 +58,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controller.errors import InputError, SeamguideError, SeamNotFound
+from controller.errors import InputError, SeamguideError, SeamNotFound, named_error
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
 from controller.vision.seam_coarse import (
@@ -389,14 +389,3 @@ def detect_seams(images: list[NDArray[Any]], *,
     with ThreadPoolExecutor(max_workers=2) as ex:
         futures = [ex.submit(one, i) for i in range(len(images))]
         return [f.result() for f in futures]
-
-
-def named_error(err: SeamguideError, name: str) -> SeamguideError:
-    """``err`` as the same error type, its message starting with ``NAME: `` (details + view)."""
-    msg = str(err)
-    if msg.startswith(f"{name}:"):
-        return err
-    try:
-        return type(err)(f"{name}: {msg}", **{**err.details, "view": name})
-    except TypeError:  # an error type with its own constructor: keep it as it is
-        return err
