@@ -11,8 +11,8 @@ from controller.vision.seam_params import Candidate
 
 
 def _points(x_end: float) -> np.ndarray:
-    return np.column_stack([np.arange(200.0, x_end + 0.1, 4.0), np.full(
-        len(np.arange(200.0, x_end + 0.1, 4.0)), 300.0)])
+    x = np.arange(200.0, x_end + 0.1, 4.0)
+    return np.column_stack([x, np.full(len(x), 300.0)])
 
 
 def _cand(x_end: float) -> Candidate:
