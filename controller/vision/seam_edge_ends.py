@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from controller.vision.seam_decision import arc_length
 from controller.vision.seam_ends import _border_crossing, darker_than_sheets
 from controller.vision.seam_params import F64, Candidate
 from controller.vision.seam_profiles import bilinear
@@ -46,7 +47,7 @@ def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: floa
     :func:`controller.vision.seam_ends.darker_than_sheets` judges a dark table.
     """
     H, W = grey.shape
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    s = arc_length(pts)
     j = min(int(np.searchsorted(s, s[-1] - _TANGENT_PX)), len(pts) - 2)
     tang = pts[-1] - pts[j]
     tang = tang / (np.linalg.norm(tang) + 1e-12)
@@ -67,11 +68,12 @@ def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: floa
         val, inside = bilinear(grey, lut, q[:, 0], q[:, 1])
         if not inside.all():
             continue
-        lo, hi = sorted((float(np.median(val[left])), float(np.median(val[right]))))
+        m_left, m_right = float(np.median(val[left])), float(np.median(val[right]))
+        lo = min(m_left, m_right)
         if k < 0:
             sheets.append(lo)
             continue
-        brighter.append(val[left] if float(np.median(val[left])) >= hi else val[right])
+        brighter.append(val[left] if m_left >= m_right else val[right])
         seen.append(float(np.convolve(val, box, mode="same")[core].min()) < DIP * lo)
     over_table = bool(brighter and sheets
                       and darker_than_sheets(np.concatenate(brighter), float(np.median(sheets))))
