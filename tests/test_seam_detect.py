@@ -120,6 +120,28 @@ def test_two_similar_seams_are_ambiguous_and_roi_or_hint_resolves(cases):
     assert dist_to_polyline(det.points_px, truth).max() < 2.0
 
 
+def test_an_ambiguous_refusal_draws_both_lines_on_the_overlay(cases, tmp_path, capsys):
+    img = cases["straight"].image
+    w = img.shape[1]
+    png, overlay = tmp_path / "two.png", tmp_path / "overlay.png"
+    cv2.imwrite(str(png), np.hstack([img, img]))
+    assert main(["detect", str(png), "--overlay", str(overlay)]) == AmbiguousSeam.exit_code
+    assert "similar strength" in capsys.readouterr().err
+    pic = cv2.imread(str(overlay)).astype(int)
+    f = pic.shape[1] / (2 * w)  # the picture is shrunk to at most 1600 px wide
+    b, g, r = (pic[:, :, k] for k in range(3))
+    cyan, magenta = (b > 200) & (g > 150) & (r < 90), (b > 200) & (g < 90) & (r > 200)
+    truth = cases["straight"].seam_px
+    for colour in (cyan, magenta):
+        ys, xs = np.nonzero(colour)
+        assert len(xs) > 100
+        # Each colour on one copy's seam, the two colours on different copies.
+        near = [dist_to_polyline(np.c_[xs, ys] / f, truth + [k * w, 0]) < 6.0 for k in (0, 1)]
+        assert max(float(np.mean(n)) for n in near) > 0.75  # the rest: its number beside it
+    assert (np.median(np.nonzero(cyan)[1]) < pic.shape[1] / 2) != (
+        np.median(np.nonzero(magenta)[1]) < pic.shape[1] / 2)
+
+
 def with_a_fainter_twin(img, lighten):
     """``img`` beside a copy whose gap is lightened by ``lighten`` (0..1): a weaker second seam."""
     f = img.astype(np.float64)

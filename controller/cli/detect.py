@@ -80,7 +80,9 @@ def run(args: argparse.Namespace) -> int:
         one_reading(det.points_px, det.band_px, params)
     except (SeamNotFound, AmbiguousSeam) as err:
         if args.overlay:
-            _write_png(args.overlay, draw_overlay(image, det, f"NO SEAM: {err}"))
+            rivals = [err.details[k] for k in ("best_px", "second_px") if k in err.details]
+            _write_png(args.overlay, draw_overlay(image, det, f"NO SEAM: {err}",
+                                                  rivals_px=rivals))
         raise
     if args.overlay:
         _write_png(args.overlay, draw_overlay(image, det))

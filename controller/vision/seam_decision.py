@@ -185,10 +185,22 @@ def rate_confidence(c: Candidate, ratio: float,
     return float(np.clip(conf, 0.0, 1.0)), reasons
 
 
+#: A refused candidate is reported as its centreline with a point about every this many px:
+#: enough to draw it over the image (a curve's bends kept) and short in a cycle record.
+SUMMARY_STEP_PX = 40.0
+
+
 def summary_px(c: Candidate, x0: int, y0: int) -> list[list[float]]:
-    """First, middle and last point of ``c`` in image px (ROI offset ``x0, y0`` added)."""
+    """``c``'s centreline in image px (ROI offset ``x0, y0`` added), for a report or a picture.
+
+    Its first and last point, and a point about every :data:`SUMMARY_STEP_PX` px of arc length
+    between them.
+    """
     pts = c.points if c.points is not None else c.polyline
-    return np.round(pts[[0, len(pts) // 2, -1]] + [x0, y0], 1).tolist()
+    s = arc_length(pts)
+    n = max(2, int(np.ceil(s[-1] / SUMMARY_STEP_PX)) + 1)
+    idx = np.unique(np.searchsorted(s, np.linspace(0.0, s[-1], n)).clip(0, len(pts) - 1))
+    return np.round(pts[idx] + [x0, y0], 1).tolist()
 
 
 def orient(pts: F64) -> F64:

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import textwrap
+from collections.abc import Sequence
 from typing import Any
 
 import cv2
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from controller.vision.seam_detect import SeamDetection
 
@@ -34,19 +35,36 @@ def text_lines(texts: list[str], width: int) -> list[str]:
     return out
 
 
+#: BGR colours of the candidates an ambiguous refusal could not choose between: the strongest
+#: first (cyan), its rival (magenta); neither is the seam's green.
+RIVAL_COLOURS = ((255, 200, 0), (255, 0, 255))
+
+
 def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = None,
-                 message: str | None = None, max_width: int = 1600) -> NDArray[np.uint8]:
+                 message: str | None = None, max_width: int = 1600,
+                 rivals_px: Sequence[ArrayLike] = ()) -> NDArray[np.uint8]:
     """BGR uint8 picture: ``image`` dimmed, the seam in green, ends in orange, text on top.
 
     ``detection`` may be None (a failed detection), then ``message`` says why; with both, the
-    detection was refused for a single-image answer (two readings, drawn). The picture is
-    shrunk to at most ``max_width`` px wide (drawing is done at full resolution first).
+    detection was refused for a single-image answer (two readings, drawn). ``rivals_px``: the
+    centrelines (each (N, 2) image px) a refusal could not choose between, strongest first,
+    drawn in :data:`RIVAL_COLOURS` and numbered, so that a person sees which line to give a
+    ``--roi`` around. The picture is shrunk to at most ``max_width`` px wide (drawing is done at
+    full resolution first).
     """
     img = image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
     out = (img.astype(np.float32) * 0.75).astype(np.uint8)
     H, W = out.shape[:2]
     scale_line = max(1, int(round(W / 800)))
     lines: list[str] = []
+    for k, (line, colour) in enumerate(zip(rivals_px, RIVAL_COLOURS, strict=False)):
+        rival = np.asarray(line, dtype=np.float64).reshape(-1, 2)
+        cv2.polylines(out, [_fixed(rival).reshape(-1, 1, 2)], False, colour, 2 * scale_line,
+                      cv2.LINE_AA, _SHIFT)
+        mid = rival[len(rival) // 2]
+        cv2.putText(out, str(k + 1), (int(mid[0]) + 12 * scale_line, int(mid[1])),
+                    cv2.FONT_HERSHEY_SIMPLEX, 1.2 * scale_line, colour, 2 * scale_line,
+                    cv2.LINE_AA)
     if detection is not None:
         pts = _fixed(detection.points_px)
         cv2.polylines(out, [pts.reshape(-1, 1, 2)], False, (40, 230, 40), scale_line,
@@ -73,6 +91,12 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
                          "a cut face inside the gap rather than a shadow beside it")
     if message:
         lines.append(message)
+    if len(rivals_px) == 1:
+        lines.append("1 (cyan): the refused candidate. Give a --roi around the joint, or a "
+                     "nominal seam hint")
+    elif len(rivals_px) > 1:
+        lines.append("1 (cyan): the strongest candidate; 2 (magenta): the line it could not be "
+                     "told from. Give a --roi around the joint, or a nominal seam hint")
     y = 40 * scale_line
     colour = (40, 230, 40) if detection is not None and not message else (60, 60, 255)
     # Hershey simplex at 0.7 x scale_line: about 12 x scale_line px a character.
