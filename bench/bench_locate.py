@@ -38,7 +38,8 @@ from controller.errors import SeamguideError, TriangulationError  # noqa: E402
 from controller.geometry.poses import invert, make_pose, rotation_about  # noqa: E402
 from controller.stereo.locate import ViewObservation, locate_seam  # noqa: E402
 from controller.stereo.triangulate import PolylineDistance  # noqa: E402
-from controller.vision.seam_detect import detect_seam, detect_seams  # noqa: E402
+from controller.vision.seam_detect import detect_seam  # noqa: E402
+from controller.vision.seam_views import detect_seams  # noqa: E402
 from drivers.sim.sim_cell import default_sim_cell  # noqa: E402
 from drivers.sim.sim_render import render, suggest_view_poses  # noqa: E402
 from drivers.sim.sim_scene import KINDS, make_scene  # noqa: E402

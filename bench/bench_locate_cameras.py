@@ -40,7 +40,7 @@ from bench_locate import (  # noqa: E402
 
 from controller.errors import SeamguideError  # noqa: E402
 from controller.stereo.locate import ViewObservation, locate_seam  # noqa: E402
-from controller.vision.seam_detect import detect_seams  # noqa: E402
+from controller.vision.seam_views import detect_seams  # noqa: E402
 from drivers.sim.sim_cell import default_sim_cell  # noqa: E402
 from drivers.sim.sim_fixed_cell import fixed_stereo_cell  # noqa: E402
 from drivers.sim.sim_render import render  # noqa: E402

@@ -7,6 +7,7 @@ record, and no weld command sent after the fault.
 
 import threading
 import time
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -158,7 +159,14 @@ def test_no_seam_in_view_two_names_view_two(tmp_path):
         assert type(result.error).__name__ == "SeamNotFound", result.reason
         assert result.reason.startswith("view2: "), result.reason
         assert_safe_fault(rig, result, "view2: ")
-        assert read_record(result.record_path)["details"]["view"] == "view2"
+        record = read_record(result.record_path)
+        assert record["details"]["view"] == "view2"
+        # Both views' pictures are kept: the found seam, and why view2 was refused.
+        assert record["detections"][1] == {"view": "view2", "refused": "SeamNotFound"}
+        assert record["detections"][0]["view"] == "view1"
+        assert 0 < record["detections"][0]["confidence"] <= 1
+        for name in ("view1", "view2"):
+            assert cv2.imread(str(Path(result.record_path) / f"{name}_overlay.png")) is not None
 
 
 def test_ambiguous_seam(tmp_path):
@@ -172,6 +180,11 @@ def test_ambiguous_seam(tmp_path):
         assert type(result.error).__name__ == "AmbiguousSeam", result.reason
         assert result.reason.startswith("view1: "), result.reason
         assert_safe_fault(rig, result, "two seam candidates of similar strength")
+        # The record's picture of view1 draws the two lines it could not choose between.
+        pic = cv2.imread(str(Path(result.record_path) / "view1_overlay.png")).astype(int)
+        b, g, r = (pic[:, :, k] for k in range(3))
+        assert ((b > 200) & (g > 150) & (r < 90)).sum() > 100  # 1, cyan
+        assert ((b > 200) & (g < 90) & (r > 200)).sum() > 100  # 2, magenta
 
 
 def test_bad_triangulation_from_a_wrong_hand_eye(tmp_path):

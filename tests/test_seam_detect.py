@@ -255,7 +255,7 @@ def test_pieces_of_a_faint_gap_are_joined_but_not_a_branch():
 
 
 def test_several_views_at_once_match_one_by_one_and_raise_in_order(cases):
-    from controller.vision.seam_detect import detect_seams
+    from controller.vision.seam_views import detect_seams
 
     images = [cases["arc"].image, cases["s_curve"].image]
     together = detect_seams(images)
@@ -264,6 +264,12 @@ def test_several_views_at_once_match_one_by_one_and_raise_in_order(cases):
     blank = np.full_like(images[0], 120)
     with pytest.raises(SeamNotFound):
         detect_seams([images[0], blank])
+    # Every view's outcome is kept before the error is raised: the found one and the refusal.
+    outcomes: list = []
+    with pytest.raises(SeamNotFound, match="^blank: ") as err:
+        detect_seams([blank, images[1]], names=["blank", "s_curve"], outcomes=outcomes)
+    assert outcomes[0] is err.value and isinstance(err.value.__cause__, SeamNotFound)
+    assert np.array_equal(outcomes[1].points_px, together[1].points_px)
     with pytest.raises(InputError, match="regions of interest"):
         detect_seams(images, rois=[None])
 

@@ -308,12 +308,16 @@ class WeldCycle:
         views = self._views()
 
         def detected(dets: list[Any]) -> None:
-            self.result.detections.extend(dets)
+            # A view refused: its error stands in its place (the others' pictures are kept too).
+            refused = [d for d in dets if isinstance(d, SeamguideError)]
+            if not refused:
+                self.result.detections.extend(dets)
             if self.record is not None:
                 for view, det in zip(views, dets, strict=True):
                     save_overlay(self.record, view.name, view.image, det)
                 self.record.note(detections=[
-                    {"view": v.name, "confidence": round(float(d.confidence), 3)}
+                    {"view": v.name, "refused": type(d).__name__} if isinstance(d, SeamguideError)
+                    else {"view": v.name, "confidence": round(float(d.confidence), 3)}
                     for v, d in zip(views, dets, strict=True)])
 
         located = locate_views(views, self.settings, detector=self.detector,

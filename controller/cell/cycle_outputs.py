@@ -54,12 +54,16 @@ def save_view(record: CycleRecord, name: str, image: np.ndarray, T_base_cam: np.
 
 
 def save_overlay(record: CycleRecord, name: str, image: np.ndarray, det: Any) -> None:
-    """``<view>_overlay.png``: the detection drawn on the view's image (skipped without cv2)."""
+    """``<view>_overlay.png``: the detection drawn on the view's image (skipped without cv2).
+
+    ``det``: a detection, or the ``SeamguideError`` the view was refused with (its message
+    written on the picture, an ambiguous refusal's two lines drawn).
+    """
     try:
-        from controller.vision.seam_overlay import draw_overlay
+        from controller.vision.seam_overlay import outcome_overlay
     except ImportError:
         return
-    record.save_image(f"{name}_overlay.png", draw_overlay(image, det))
+    record.save_image(f"{name}_overlay.png", outcome_overlay(image, det))
 
 
 def save_seam(record: CycleRecord, seam: Seam3D, path: WeldPath, job: Job) -> None:

@@ -168,14 +168,16 @@ def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSetting
 
 
 def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
-                 detector: Detector | None = None) -> list[Any]:
+                 detector: Detector | None = None, outcomes: list[Any] | None = None
+                 ) -> list[Any]:
     """The seam in each view (in view order), inside the nominal region's box when there is one.
 
     Two views at a time (:func:`detect_seams`), each with its own camera model and the pixel
     scales of its working distance (:func:`view_params`). Raises what the detector raises (seam
-    not found, ambiguous seam), the message starting with the view's name.
+    not found, ambiguous seam), the message starting with the view's name; ``outcomes`` (if
+    given) then holds every view's detection or error, as :func:`detect_seams` fills it.
     """
-    from controller.vision.seam_detect import detect_seams
+    from controller.vision.seam_views import detect_seams
 
     region = settings.nominal_region
     rois = [nominal_roi(v.camera, v.T_base_cam, *region) if region is not None else None
@@ -183,7 +185,8 @@ def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
     params = [view_params(v.camera, v.T_base_cam, settings, roi)
               for v, roi in zip(views, rois, strict=True)]
     return detect_seams([v.image for v in views], camera=[v.camera for v in views], rois=rois,
-                        detector=detector, names=[v.name for v in views], params=params)
+                        detector=detector, names=[v.name for v in views], params=params,
+                        outcomes=outcomes)
 
 
 def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
@@ -194,7 +197,9 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
     """Detect the seam in every view and triangulate it (base frame, mm): the first stage.
 
     ``on_detections`` gets the detections before the seam is located (records, overlays: they
-    are kept when locating fails); ``note`` is told ``view_layout_warning=...`` about views
+    are kept when locating fails); when a view is refused, it gets every view's detection or
+    error (a :class:`SeamguideError`) before the error is raised, so that a record still shows
+    every view; ``note`` is told ``view_layout_warning=...`` about views
     rolled alike (also logged), ``seam_ends=...``, how each end of the seam was seen, and
     ``band_reading=...`` where every view split a shadow off the gap (which reading was kept);
     ``check`` runs between the steps (timeouts, aborts). Raises :class:`SeamguideError`
@@ -206,7 +211,13 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
         log.warning("%s", warning)
         if note is not None:
             note(view_layout_warning=warning)
-    detections = detect_views(views, settings, detector)
+    outcomes: list[Any] = []
+    try:
+        detections = detect_views(views, settings, detector, outcomes)
+    except SeamguideError:
+        if on_detections is not None and len(outcomes) == len(views):
+            on_detections(outcomes)
+        raise
     if on_detections is not None:
         on_detections(detections)
     if check is not None:

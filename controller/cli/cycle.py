@@ -68,7 +68,8 @@ def register(sub: Any) -> None:
     loc.add_argument("--count", type=int, help="number of weld points instead of a spacing")
     loc.add_argument("--no-path", action="store_true", help="skip weld path planning")
     loc.add_argument("--output", help="write the JSON here instead of stdout")
-    loc.add_argument("--overlay-dir", help="write a detection overlay PNG per view here")
+    loc.add_argument("--overlay-dir", help="write an overlay PNG per view here: its seam, or "
+                     "why it was refused")
     loc.set_defaults(func=_locate)
 
 
@@ -120,9 +121,9 @@ def _save_overlay(path: Path, image: Any, det: Any) -> None:
 
     from controller.errors import InputError
     from controller.jsonio import atomic_write_bytes
-    from controller.vision.seam_overlay import draw_overlay
+    from controller.vision.seam_overlay import outcome_overlay
 
-    ok, buf = cv2.imencode(".png", draw_overlay(image, det))
+    ok, buf = cv2.imencode(".png", outcome_overlay(image, det))
     if not ok:
         raise InputError(f"could not encode the overlay {path}")
     atomic_write_bytes(path, buf.tobytes())

@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from controller.vision.image_io import load_image
     from controller.vision.seam_decision import one_reading
     from controller.vision.seam_detect import DetectParams, detect_seam
-    from controller.vision.seam_overlay import draw_overlay
+    from controller.vision.seam_overlay import draw_overlay, refused_lines
 
     camera = None
     if args.calibration:
@@ -80,9 +80,8 @@ def run(args: argparse.Namespace) -> int:
         one_reading(det.points_px, det.band_px, params)
     except (SeamNotFound, AmbiguousSeam) as err:
         if args.overlay:
-            rivals = [err.details[k] for k in ("best_px", "second_px") if k in err.details]
             _write_png(args.overlay, draw_overlay(image, det, f"NO SEAM: {err}",
-                                                  rivals_px=rivals))
+                                                  rivals_px=refused_lines(err)))
         raise
     if args.overlay:
         _write_png(args.overlay, draw_overlay(image, det))

@@ -50,7 +50,7 @@ image (undistort with ``CameraModel.pixels_to_normalized``).
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -58,7 +58,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controller.errors import InputError, SeamguideError, SeamNotFound, named_error
+from controller.errors import InputError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
 from controller.vision.seam_coarse import (
@@ -86,8 +86,7 @@ from controller.vision.seam_robust import robust_candidates
 #: Marks the lines of a table among candidates (seam_pattern.mark_table_lines, bound to an image).
 TableCheck = Callable[[list[Candidate]], None]
 
-__all__ = ["IMAGE_BORDER", "JOINT_END", "DetectParams", "SeamDetection", "detect_seam",
-           "detect_seams"]
+__all__ = ["IMAGE_BORDER", "JOINT_END", "DetectParams", "SeamDetection", "detect_seam"]
 
 
 @dataclass(frozen=True)
@@ -344,48 +343,3 @@ def _check_roi(roi: Any, W: int, H: int) -> tuple[int, int, int, int]:
         raise InputError(f"roi {list(roi)} leaves {max(x1 - x0, 0)}x{max(y1 - y0, 0)} px of the "
                          f"{W}x{H} image; give a box of at least 32x32 px inside the image")
     return x0, y0, x1, y1
-
-
-def detect_seams(images: list[NDArray[Any]], *,
-                 camera: CameraModel | Sequence[CameraModel] | None = None,
-                 rois: list[tuple[int, int, int, int] | None] | None = None,
-                 detector: Any = None,
-                 names: Sequence[str] | None = None,
-                 params: Sequence[DetectParams | None] | None = None) -> list[SeamDetection]:
-    """:func:`detect_seam` on several views at once, one thread per view (at most 2 at a time).
-
-    NumPy and OpenCV release the GIL for most of the work, so two views take about 0.6-0.8 of
-    the time of one after the other on two cores. Results are in the order of ``images``; the
-    first view's error (in that order) is raised. ``camera`` is one model for every view or one
-    per view (cameras with different lenses). ``detector`` replaces :func:`detect_seam` (same
-    keyword arguments ``camera`` and ``roi``), e.g. in tests. With ``names`` (one per view), a
-    view's error is raised as the same error type whose message starts with ``NAME: `` and whose
-    details hold ``view=NAME``. ``params``: one :class:`DetectParams` per view (None: the
-    detector's defaults, and no ``params`` argument is passed to a replacement ``detector``).
-    """
-    from concurrent.futures import ThreadPoolExecutor
-
-    fn = detect_seam if detector is None else detector
-    rois = rois if rois is not None else [None] * len(images)
-    cams = (list(camera) if isinstance(camera, Sequence) else [camera] * len(images))
-    prms = list(params) if params is not None else [None] * len(images)
-    if len(rois) != len(images) or len(cams) != len(images) or len(prms) != len(images) or \
-            (names is not None and len(names) != len(images)):
-        raise InputError(f"detect_seams: {len(images)} images but {len(rois)} regions of interest, "
-                         f"{len(cams)} cameras, {len(prms)} parameter sets and "
-                         f"{len(names or images)} names")
-
-    def one(i: int) -> SeamDetection:
-        extra: dict[str, Any] = {} if prms[i] is None else {"params": prms[i]}
-        try:
-            return fn(images[i], camera=cams[i], roi=rois[i], **extra)  # type: ignore[no-any-return]
-        except SeamguideError as err:
-            if names is None:
-                raise
-            raise named_error(err, names[i]) from err
-
-    if len(images) < 2:
-        return [one(i) for i in range(len(images))]
-    with ThreadPoolExecutor(max_workers=2) as ex:
-        futures = [ex.submit(one, i) for i in range(len(images))]
-        return [f.result() for f in futures]

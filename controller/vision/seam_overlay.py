@@ -35,6 +35,15 @@ def text_lines(texts: list[str], width: int) -> list[str]:
     return out
 
 
+def refused_lines(err: Exception) -> list[ArrayLike]:
+    """The lines an ``AmbiguousSeam`` could not choose between (image px, strongest first).
+
+    Its details' ``best_px`` and ``second_px``; none for other errors.
+    """
+    details = getattr(err, "details", {})
+    return [details[k] for k in ("best_px", "second_px") if k in details]
+
+
 #: BGR colours of the candidates an ambiguous refusal could not choose between: the strongest
 #: first (cyan), its rival (magenta); neither is the seam's green.
 RIVAL_COLOURS = ((255, 200, 0), (255, 0, 255))
@@ -111,3 +120,15 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
         out = np.asarray(cv2.resize(out, (max_width, int(round(H * f))),
                                     interpolation=cv2.INTER_AREA), np.uint8)
     return np.asarray(out, dtype=np.uint8)
+
+
+def outcome_overlay(image: NDArray[np.uint8], outcome: SeamDetection | Exception
+                    ) -> NDArray[np.uint8]:
+    """The picture of one view's outcome in a cycle (BGR uint8, as :func:`draw_overlay`).
+
+    ``outcome``: its detection, or the error it was refused with, written on the picture (an
+    ambiguous refusal's lines drawn).
+    """
+    if isinstance(outcome, Exception):
+        return draw_overlay(image, None, f"NO SEAM: {outcome}", rivals_px=refused_lines(outcome))
+    return draw_overlay(image, outcome)
