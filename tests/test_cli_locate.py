@@ -65,3 +65,22 @@ def test_locate_count_and_bad_inputs(views, capsys, tmp_path):
     assert main(["locate", "--calibration", str(d / "calib.yaml"), "--view", paths[0],
                  "--view", str(bad)]) == 3
     assert "bad.json" in capsys.readouterr().err
+
+
+def test_locate_keeps_every_views_overlay_when_one_is_refused(views, capsys, tmp_path):
+    d, paths, _ = views
+    blank = tmp_path / "blank.png"  # view 2 sees bare metal: refused, view 1 still found
+    cv2.imwrite(str(blank), np.full_like(cv2.imread(str(d / "v2.png")), 120))
+    doc = json.loads((d / "v2.json").read_text())
+    doc["image"] = str(blank)
+    (tmp_path / "v2.json").write_text(json.dumps(doc))
+    out_dir = tmp_path / "overlays"
+    out_dir.mkdir()
+    assert main(["locate", "--calibration", str(d / "calib.yaml"), "--view", paths[0],
+                 "--view", str(tmp_path / "v2.json"), "--overlay-dir", str(out_dir)]) == 9
+    assert "v2: no weld seam found" in capsys.readouterr().err
+    assert sorted(p.name for p in out_dir.iterdir()) == ["v1_overlay.png", "v2_overlay.png"]
+    # view 1's picture has its seam in green, view 2's its refusal in red text
+    v1, v2 = (cv2.imread(str(out_dir / f"v{i}_overlay.png")).astype(int) for i in (1, 2))
+    assert ((v1[:, :, 1] > 200) & (v1[:, :, 0] < 80) & (v1[:, :, 2] < 80)).sum() > 200
+    assert ((v2[:, :, 2] > 200) & (v2[:, :, 1] < 90) & (v2[:, :, 0] < 90)).sum() > 200
