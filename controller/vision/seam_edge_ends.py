@@ -22,6 +22,7 @@ from controller.vision.seam_decision import arc_length
 from controller.vision.seam_ends import _border_crossing, darker_than_sheets
 from controller.vision.seam_params import F64, Candidate
 from controller.vision.seam_profiles import bilinear
+from controller.vision.seam_wedge import sheet_levels
 
 #: Ends closer to the image edge than this (px) are not checked: too few profiles between.
 EDGE_CHECK_PX = 8.0
@@ -43,7 +44,8 @@ def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: floa
     straight on; profiles every 2 px from 2 px past the end to 1 px before the edge, each
     ``width_px`` / 2 + 8 px to either side. ``share``: of the profiles wholly inside the image,
     those that show the gap (:data:`DIP`); None where there are none. ``over the table``: the
-    brighter side of those profiles is darker than the sheets 10-40 px before the end, as
+    brighter side of those profiles is darker than the darker sheet before the end
+    (:func:`controller.vision.seam_wedge.sheet_levels`), as
     :func:`controller.vision.seam_ends.darker_than_sheets` judges a dark table.
     """
     H, W = grey.shape
@@ -61,22 +63,18 @@ def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: floa
     box = np.ones(4) / 4.0
     seen: list[bool] = []
     brighter: list[F64] = []
-    sheets: list[float] = []
-    ks = np.concatenate([np.arange(_STEP_PX, dist - 1.0, _STEP_PX), -np.arange(10.0, 41.0, 2.0)])
-    for k in ks:
+    for k in np.arange(_STEP_PX, dist - 1.0, _STEP_PX):
         q = pts[-1] + k * tang + np.outer(os_, nrm)
         val, inside = bilinear(grey, lut, q[:, 0], q[:, 1])
         if not inside.all():
             continue
         m_left, m_right = float(np.median(val[left])), float(np.median(val[right]))
-        lo = min(m_left, m_right)
-        if k < 0:
-            sheets.append(lo)
-            continue
         brighter.append(val[left] if m_left >= m_right else val[right])
-        seen.append(float(np.convolve(val, box, mode="same")[core].min()) < DIP * lo)
-    over_table = bool(brighter and sheets
-                      and darker_than_sheets(np.concatenate(brighter), float(np.median(sheets))))
+        seen.append(float(np.convolve(val, box, mode="same")[core].min())
+                    < DIP * min(m_left, m_right))
+    sheets = sheet_levels(grey, lut, pts[-1], tang, nrm, w)
+    over_table = bool(brighter and sheets is not None
+                      and darker_than_sheets(np.concatenate(brighter), min(sheets)))
     return dist, (float(np.mean(seen)) if seen else None), over_table
 
 

@@ -58,7 +58,7 @@ def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
     if w_med >= _MAX_BAND * DetectParams().max_gap_px:
         return None
     nrm = np.array([-tang[1], tang[0]])
-    sheets = _sheet_levels(grey, lut, end_pt, tang, nrm, w_med)
+    sheets = sheet_levels(grey, lut, end_pt, tang, nrm, w_med)
     if sheets is None:
         return None
     reach = max(64.0, 8.0 * w_med)
@@ -103,7 +103,7 @@ def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
     return k_end
 
 
-def _sheet_levels(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, nrm: F64,
+def sheet_levels(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, nrm: F64,
                   w_med: float) -> tuple[float, float] | None:
     """The two sheets' levels (left, right of ``tang``) before ``end_pt``, or None off the image.
 
