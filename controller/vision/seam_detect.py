@@ -203,8 +203,11 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     cands = _refined(sub, lut, cands, table, hint_arr, p)
     details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}
 
+    checked: set[int] = set()  # candidates whose image-border ends were looked at already
+
     def decide(cands: list[Candidate]) -> tuple[Candidate, float, float, list[str]]:
-        correct_edge_ends(sub, lut, cands)
+        correct_edge_ends(sub, lut, [c for c in cands if id(c) not in checked])
+        checked.update(id(c) for c in cands)
         if trace is not None:
             trace.append(list(cands))
         return choose(cands, p, details, (x0, y0))
