@@ -26,6 +26,8 @@ BENCHMARKS: dict[str, tuple[list[str], list[str]]] = {
     "kinematics": (["bench/bench_kinematics.py"], []),
     "cli_startup": (["bench/bench_cli_startup.py"], ["--quick"]),
     "detect": (["-m", "bench.bench_detect"], ["--quick"]),
+    # After "detect": the gap's depth of the views that run wrote (bench/out/detect.json).
+    "gap_depth": (["-m", "bench.bench_gap_depth", "--rows", "bench/out/detect.json"], []),
     "detect_scale": (["-m", "bench.bench_detect_scale"], ["--quick"]),
     "detect_noseam": (["-m", "bench.bench_detect_noseam"], ["--views", "6", "--shifts", "200"]),
     "detect_job_gap": (["-m", "bench.bench_detect_job_gap"], ["--cases", "12"]),

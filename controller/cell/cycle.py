@@ -26,7 +26,7 @@ from controller.cell.cycle_machine import CycleState, build_machine
 from controller.cell.cycle_outputs import (
     jsonable,
     save_calibration,
-    save_overlay,
+    save_detections,
     save_seam,
     save_view,
 )
@@ -309,16 +309,10 @@ class WeldCycle:
 
         def detected(dets: list[Any]) -> None:
             # A view refused: its error stands in its place (the others' pictures are kept too).
-            refused = [d for d in dets if isinstance(d, SeamguideError)]
-            if not refused:
+            if not any(isinstance(d, SeamguideError) for d in dets):
                 self.result.detections.extend(dets)
             if self.record is not None:
-                for view, det in zip(views, dets, strict=True):
-                    save_overlay(self.record, view.name, view.image, det)
-                self.record.note(detections=[
-                    {"view": v.name, "refused": type(d).__name__} if isinstance(d, SeamguideError)
-                    else {"view": v.name, "confidence": round(float(d.confidence), 3)}
-                    for v, d in zip(views, dets, strict=True)])
+                save_detections(self.record, views, dets)
 
         located = locate_views(views, self.settings, detector=self.detector,
                                on_detections=detected, check=lambda: self._remaining(t),

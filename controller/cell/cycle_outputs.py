@@ -7,15 +7,17 @@ record does the atomic writing.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from calibration.calibration_file import Calibration, calibration_to_dict
 from controller.cell.cycle_record import CycleRecord
-from controller.cell.guidance import locate_output
+from controller.cell.guidance import ViewInput, locate_output
 from controller.cell.job import Job
 from controller.cell.seam_plot import seam_plot_png
+from controller.errors import SeamguideError
 from controller.geometry.poses import pose_to_dict
 from controller.path.rapid_export import rapid_module
 from controller.path.weld_path import WeldPath
@@ -53,17 +55,28 @@ def save_view(record: CycleRecord, name: str, image: np.ndarray, T_base_cam: np.
     record.save_json(f"{name}.json", doc)
 
 
-def save_overlay(record: CycleRecord, name: str, image: np.ndarray, det: Any) -> None:
-    """``<view>_overlay.png``: the detection drawn on the view's image (skipped without cv2).
+def save_detections(record: CycleRecord, views: Sequence[ViewInput], outcomes: list[Any]
+                    ) -> None:
+    """Each view's ``<view>_overlay.png`` and the record's ``detections`` note.
 
-    ``det``: a detection, or the ``SeamguideError`` the view was refused with (its message
-    written on the picture, an ambiguous refusal's two lines drawn).
+    ``outcomes``: per view, its detection or the ``SeamguideError`` it was refused with (its
+    message written on the picture, an ambiguous refusal's two lines drawn; the note names the
+    error's type). The pictures are skipped without cv2.
     """
+    _save_overlays(record, views, outcomes)
+    record.note(detections=[
+        {"view": v.name, "refused": type(d).__name__} if isinstance(d, SeamguideError)
+        else {"view": v.name, "confidence": round(float(d.confidence), 3)}
+        for v, d in zip(views, outcomes, strict=True)])
+
+
+def _save_overlays(record: CycleRecord, views: Sequence[ViewInput], outcomes: list[Any]) -> None:
     try:
         from controller.vision.seam_overlay import outcome_overlay
     except ImportError:
         return
-    record.save_image(f"{name}_overlay.png", outcome_overlay(image, det))
+    for view, det in zip(views, outcomes, strict=True):
+        record.save_image(f"{view.name}_overlay.png", outcome_overlay(view.image, det))
 
 
 def save_seam(record: CycleRecord, seam: Seam3D, path: WeldPath, job: Job) -> None:
