@@ -114,6 +114,19 @@ def test_no_reply_is_a_link_error_naming_the_request():
         link.close()
 
 
+def test_a_controller_that_does_not_answer_leaves_nothing_open():
+    # loop:// hands our own HI back: the port opens but the session never starts.
+    robot = open_robot("loop://", ack_timeout_s=0.02, retries=1)
+    with pytest.raises(LinkError, match="HI"):
+        robot.open()
+    assert not robot.link.is_open
+    # A mock that drops every line: the pty it served for this robot is stopped again.
+    robot = open_robot("mock://?drop=1", ack_timeout_s=0.02, retries=1)
+    with pytest.raises(LinkError):
+        robot.open()
+    assert not robot.link.is_open and not robot.mock.pty.serving
+
+
 def test_unopenable_port_is_a_link_error(tmp_path):
     with pytest.raises(LinkError, match="cannot open robot link"):
         open_robot(str(tmp_path / "nope")).open()

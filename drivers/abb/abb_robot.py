@@ -145,7 +145,19 @@ class AbbRobot(Robot):
     # -- Robot ----------------------------------------------------------------------------------
 
     def open(self) -> None:
-        """Open the port, start the session (``HI``) and identify the controller (``ID``)."""
+        """Open the port, start the session (``HI``) and identify the controller (``ID``).
+
+        When that fails, the port is closed again (and a mock this robot owns stopped) before
+        the error is raised: a daemon retrying a controller that does not answer would otherwise
+        leave one open port (and one mock's thread) behind per attempt.
+        """
+        try:
+            self._open()
+        except BaseException:
+            self.close()
+            raise
+
+    def _open(self) -> None:
         if self.prepare is not None and not self.link.is_open:
             self.link.url = self.prepare()
         self._speed_zone = ""  # whatever the controller holds, we have not set it yet
