@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import threading
 
 import numpy as np
 import pytest
@@ -135,3 +136,42 @@ def test_pty_transport_alone_serves_a_line(tmp_path):
     finally:
         pty.stop()
     assert not pty.serving and line.on_drop is None and not os.path.lexists(link)
+
+
+def test_a_stop_that_times_out_leaves_the_descriptors_to_the_serving_thread(tmp_path,
+                                                                              monkeypatch):
+    line = _echo_line()
+    entered, release = threading.Event(), threading.Event()
+    real_run_due = line.run_due
+
+    def held_run_due(*args, **kwargs):  # the serving thread held inside, as by a slow action
+        entered.set()
+        release.wait(10.0)
+        return real_run_due(*args, **kwargs)
+
+    pty = PtyTransport(line)
+    pty.serve(str(tmp_path / "robot"))
+    thread = pty._thread
+    fds = {pty._master, pty._slave, pty._wake_r, pty._wake_w}
+    closed: list[tuple[int, str]] = []
+    real_close = os.close
+
+    def spy(fd: int) -> None:
+        closed.append((fd, threading.current_thread().name))
+        real_close(fd)
+
+    monkeypatch.setattr(os, "close", spy)
+    monkeypatch.setattr(line, "run_due", held_run_due)
+    try:
+        assert entered.wait(5.0)
+        pty.stop(timeout_s=0.2)
+        assert thread is not None and thread.is_alive() and closed == []
+        with pytest.raises(ConfigError, match="not ended yet"):
+            pty.serve(str(tmp_path / "robot2"))
+    finally:
+        release.set()
+    thread.join(5.0)
+    assert not thread.is_alive()
+    # Each descriptor closed once, by the thread that used it, none by stop().
+    assert sorted(fd for fd, _ in closed) == sorted(fds)
+    assert {name for _, name in closed} == {"mock-controller"}

@@ -40,6 +40,40 @@ def test_the_loop_closes_its_own_channels_and_ends(monkeypatch: pytest.MonkeyPat
     assert server._thread is not None and not server._thread.is_alive()
 
 
+def test_a_stop_that_times_out_leaves_the_closing_to_the_loop(monkeypatch: pytest.MonkeyPatch
+                                                              ) -> None:
+    closed_by: list[str] = []
+    real = wasyncore.close_all
+
+    def spy(map: Any = None, ignore_all: bool = False) -> None:
+        closed_by.append(threading.current_thread().name)
+        real(map, ignore_all)
+
+    monkeypatch.setattr(wasyncore, "close_all", spy)
+    server = StationServer(_app, "127.0.0.1", 0, 65536)
+    server.start()
+    trigger = server._server.trigger
+    entered, release = threading.Event(), threading.Event()
+    wake_up = trigger.handle_read
+
+    def held() -> None:  # the loop's thread held inside a handler, as by a slow one
+        entered.set()
+        release.wait(10.0)
+        wake_up()
+
+    trigger.handle_read = held
+    trigger.pull_trigger()
+    try:
+        assert entered.wait(5.0)
+        server.stop(timeout_s=0.2)
+        assert closed_by == []  # nothing closed from this thread while the loop runs
+    finally:
+        release.set()
+    assert server._thread is not None
+    server._thread.join(5.0)
+    assert not server._thread.is_alive() and closed_by == ["station"]
+
+
 def test_a_server_never_started_is_closed_by_stop() -> None:
     server = StationServer(_app, "127.0.0.1", 0, 65536)
     server.stop()

@@ -39,8 +39,12 @@ class StationServer:
         self._thread.start()
         log.info("operator station at %s", self.url)
 
-    def stop(self) -> None:
-        """Finish the requests being served, close every connection, wait for the thread."""
+    def stop(self, timeout_s: float = 5.0) -> None:
+        """Finish the requests being served, close every connection, wait for the thread.
+
+        When the loop's thread does not end within ``timeout_s`` (s), its connections are left
+        for it to close when it does, and a warning is logged.
+        """
         from waitress import wasyncore
 
         # In this order: running tasks still wake the loop through its trigger when they end;
@@ -52,6 +56,12 @@ class StationServer:
             # from here while the loop waits on it in select() ends the loop with EBADF
             # (waitress issue 468, fixed upstream after 3.0.2, the release this machine has).
             self._server.trigger.pull_trigger(lambda: wasyncore.close_all(server_map))
-            self._thread.join(timeout=5.0)
-        if server_map:  # never started, or the loop did not run the close
+            self._thread.join(timeout=timeout_s)
+            if self._thread.is_alive():
+                # Not closed from here as well: two threads closing the same channels can close
+                # a descriptor number twice, the second time someone else's by then.
+                log.warning("operator station did not stop within %.1f s; its loop closes its "
+                            "connections when it ends", timeout_s)
+                return
+        if server_map:  # never started, or the loop ended without running the close
             wasyncore.close_all(server_map)

@@ -10,6 +10,7 @@ it. Knows nothing of the protocol: it moves bytes and runs what the line's sched
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import select
 import tempfile
@@ -22,6 +23,8 @@ from pathlib import Path
 from controller.errors import ConfigError
 from drivers.mock.mock_line import MockLine
 
+log = logging.getLogger("seamguide.mock")
+
 
 class PtyTransport:
     """Serves ``line`` on a pseudo-terminal in a thread; stop it with :meth:`stop`.
@@ -33,6 +36,7 @@ class PtyTransport:
         self.line = line
         self.on_disconnect = on_disconnect
         self._thread: threading.Thread | None = None
+        self._ending: threading.Thread | None = None  # stopped, not ended within the timeout
         self._wake_r, self._wake_w = -1, -1
         self._stop = threading.Event()
         self._master = self._slave = -1
@@ -40,6 +44,10 @@ class PtyTransport:
         self._tmpdir: str | None = None
         self._swap_request = threading.Event()
         self._swap_done = threading.Event()
+        # The serving thread closes its own descriptors when it ends (never another thread: a
+        # number closed twice may by then be someone else's); this lock keeps wake() from
+        # writing to a number being closed.
+        self._fd_lock = threading.Lock()
 
     @property
     def serving(self) -> bool:
@@ -48,9 +56,10 @@ class PtyTransport:
 
     def wake(self) -> None:
         """Wake the serving thread (something new is scheduled)."""
-        if self._wake_w >= 0:
-            with contextlib.suppress(BlockingIOError, OSError):
-                os.write(self._wake_w, b"x")
+        with self._fd_lock:
+            if self._wake_w >= 0:
+                with contextlib.suppress(BlockingIOError, OSError):
+                    os.write(self._wake_w, b"x")
 
     def drop_link(self) -> None:
         """Drop the link from inside the serving thread (the line's ``disconnect`` fault)."""
@@ -97,6 +106,8 @@ class PtyTransport:
         """
         if self._thread is not None:
             raise ConfigError("this mock controller is already serving")
+        if self._ending is not None and self._ending.is_alive():
+            raise ConfigError("this mock controller's last serving thread has not ended yet")
         if link_path is None:
             self._tmpdir = tempfile.mkdtemp(prefix="seamguide-mock-")
             link_path = str(Path(self._tmpdir) / "robot")
@@ -117,6 +128,16 @@ class PtyTransport:
         return self.link_path
 
     def _serve(self) -> None:
+        try:
+            self._serve_until_stopped()
+        finally:
+            with self._fd_lock:
+                for fd in (self._master, self._slave, self._wake_r, self._wake_w):
+                    with contextlib.suppress(OSError):
+                        os.close(fd)
+                self._master = self._slave = self._wake_r = self._wake_w = -1
+
+    def _serve_until_stopped(self) -> None:
         pending = b""
         while not self._stop.is_set():
             pending += self.line.run_due()
@@ -161,20 +182,24 @@ class PtyTransport:
                 if data:
                     self.line.receive(data)
 
-    def stop(self) -> None:
-        """Stop serving and remove the symlink (and the temporary directory it made)."""
+    def stop(self, timeout_s: float = 5.0) -> None:
+        """Stop serving and remove the symlink (and the temporary directory it made).
+
+        The serving thread closes the pseudo-terminal and its wake pipe as it ends; when it
+        does not end within ``timeout_s`` (s), they are left to it and a warning is logged.
+        """
         if self._thread is None:
             return
         self._stop.set()
         self.wake()
-        self._thread.join(timeout=5.0)
+        self._thread.join(timeout=timeout_s)
+        if self._thread.is_alive():
+            log.warning("mock controller thread did not stop within %.1f s; it closes its "
+                        "pseudo-terminal when it ends", timeout_s)
+            self._ending = self._thread
         self._thread = None
         self.line.on_drop = None
         self.line.schedule.on_change = None
-        for fd in (self._master, self._slave, self._wake_r, self._wake_w):
-            with contextlib.suppress(OSError):
-                os.close(fd)
-        self._master = self._slave = self._wake_r = self._wake_w = -1
         if self.link_path and os.path.islink(self.link_path):
             os.unlink(self.link_path)
         if self._tmpdir:
