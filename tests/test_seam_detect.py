@@ -142,6 +142,28 @@ def test_an_ambiguous_refusal_draws_both_lines_on_the_overlay(cases, tmp_path, c
         np.median(np.nonzero(magenta)[1]) < pic.shape[1] / 2)
 
 
+def test_a_refusal_draws_the_lines_it_looked_at_with_why(tmp_path, capsys):
+    # A dark line that ends inside a plain sheet at both ends: a pen line, no joint.
+    img = np.full((900, 1200), 150, np.uint8)
+    cv2.line(img, (200, 450), (900, 430), 40, 3, cv2.LINE_AA)
+    img = np.clip(img + np.random.default_rng(1).normal(0, 2, img.shape), 0, 255)
+    png, overlay = tmp_path / "pen.png", tmp_path / "overlay.png"
+    cv2.imwrite(str(png), img.astype(np.uint8))
+    assert main(["detect", str(png), "--overlay", str(overlay)]) == SeamNotFound.exit_code
+    assert "fades out inside a sheet" in capsys.readouterr().err
+    with pytest.raises(SeamNotFound) as err:
+        detect_seam(img.astype(np.uint8))
+    (line,) = err.value.details["looked_at_px"]
+    assert err.value.details["looked_at_why"][0].startswith("dark line of")
+    assert np.abs(np.array(line)[:, 0] - 550).max() > 300  # the whole line, not a point
+    pic = cv2.imread(str(overlay)).astype(int)
+    b, g, r = (pic[:, :, k] for k in range(3))
+    ys, xs = np.nonzero((b > 200) & (g > 150) & (r < 90))  # 1, cyan, on the line
+    assert len(xs) > 300
+    on_line = np.abs(ys - (450 - 20 * (xs - 200) / 700)) < 5
+    assert np.mean(on_line) > 0.75  # the rest: its number beside it
+
+
 def with_a_fainter_twin(img, lighten):
     """``img`` beside a copy whose gap is lightened by ``lighten`` (0..1): a weaker second seam."""
     f = img.astype(np.float64)

@@ -80,8 +80,9 @@ def run(args: argparse.Namespace) -> int:
         one_reading(det.points_px, det.band_px, params)
     except (SeamNotFound, AmbiguousSeam) as err:
         if args.overlay:
+            drawn, legend = refused_lines(err)
             _write_png(args.overlay, draw_overlay(image, det, f"NO SEAM: {err}",
-                                                  rivals_px=refused_lines(err)))
+                                                  rivals_px=drawn, legend=legend))
         raise
     if args.overlay:
         _write_png(args.overlay, draw_overlay(image, det))

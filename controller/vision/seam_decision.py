@@ -28,20 +28,24 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
     good = sorted([c for c in cands if not c.why_rejected], key=lambda c: -c.score)
     rejected = [c.why_rejected for c in cands if c.why_rejected]
     details = {**details, "rejected": rejected}
+    x0, y0 = offset
     if not good:
         # The same reason once, with how many candidates gave it (the lines of a table's grid).
         said = [f"{r} (x{rejected.count(r)})" if rejected.count(r) > 1 else r
                 for r in dict.fromkeys(rejected)]
+        # The strongest lines looked at, to draw with why each was refused.
+        shown = sorted(cands, key=lambda c: (-c.score, -c.coarse_score))[:LOOKED_AT_SHOWN]
         raise SeamNotFound(
             f"no weld seam found in the image ({len(cands)} candidate(s) looked at: "
             + ("; ".join(said) or "no thin dark valley long enough")
-            + "); check that the joint is in view, in focus and lit, or give a --roi", **details)
+            + "); check that the joint is in view, in focus and lit, or give a --roi",
+            **details, looked_at_px=[summary_px(c, x0, y0) for c in shown],
+            looked_at_why=[c.why_rejected for c in shown])
     best = good[0]
     rivals = sorted(good[1:] + [c for c in cands if c.why_rejected and c.rival],
                     key=lambda c: -c.score)
     second = rivals[0] if rivals else None
     ratio = (second.score / best.score) if second is not None else 0.0
-    x0, y0 = offset
     if second is not None and ratio >= p.ambiguity_ratio:
         what = ("two seam candidates of similar strength" if ratio <= 1.0 else
                 "a line stronger than the best seam candidate, rejected for how it ends or "
@@ -65,10 +69,12 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
         # A point inside a sheet is never returned as an end, at any confidence threshold.
         raise SeamNotFound("best seam candidate fades out inside a sheet at one end (a joint "
                            "ends at a sheet border or leaves the image): "
-                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
+                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details,
+                           best_px=summary_px(best, x0, y0))
     if conf < p.min_confidence:
         raise SeamNotFound(f"best seam candidate too weak (confidence {conf:.2f}): "
-                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details)
+                           + "; ".join(reasons), confidence=conf, reasons=reasons, **details,
+                           best_px=summary_px(best, x0, y0))
     return best, ratio, conf, reasons
 
 
@@ -185,6 +191,8 @@ def rate_confidence(c: Candidate, ratio: float,
     return float(np.clip(conf, 0.0, 1.0)), reasons
 
 
+#: A refusal with no candidate passing reports this many of the strongest lines it looked at.
+LOOKED_AT_SHOWN = 3
 #: A refused candidate is reported as its centreline with a point about every this many px:
 #: enough to draw it over the image (a curve's bends kept) and short in a cycle record.
 SUMMARY_STEP_PX = 40.0

@@ -35,31 +35,49 @@ def text_lines(texts: list[str], width: int) -> list[str]:
     return out
 
 
-def refused_lines(err: Exception) -> list[ArrayLike]:
-    """The lines an ``AmbiguousSeam`` could not choose between (image px, strongest first).
+#: BGR colours of the lines a refusal drew attention to, in order: cyan, magenta, light
+#: orange; none is the seam's green.
+RIVAL_COLOURS = ((255, 200, 0), (255, 0, 255), (80, 180, 255))
+_NAMES = ("cyan", "magenta", "orange")
 
-    Its details' ``best_px`` and ``second_px``; none for other errors.
+
+def refused_lines(err: Exception) -> tuple[list[ArrayLike], list[str]]:
+    """The lines (image px, each (N, 2)) a refusal drew attention to, and what to write of them.
+
+    An ambiguous refusal: the strongest line and the one it could not be told from (its
+    details' ``best_px``, ``second_px``). A refused best candidate (too weak, fading out): that
+    one (``best_px``). No candidate passing: the strongest lines looked at, each with why it was
+    refused (``looked_at_px``, ``looked_at_why``). Other errors: none.
     """
-    details = getattr(err, "details", {})
-    return [details[k] for k in ("best_px", "second_px") if k in details]
-
-
-#: BGR colours of the candidates an ambiguous refusal could not choose between: the strongest
-#: first (cyan), its rival (magenta); neither is the seam's green.
-RIVAL_COLOURS = ((255, 200, 0), (255, 0, 255))
+    d = getattr(err, "details", {})
+    roi = "Give a --roi around the joint, or a nominal seam hint"
+    if "second_px" in d:
+        return [d["best_px"], d["second_px"]], [
+            f"1 (cyan): the strongest candidate; 2 (magenta): the line it could not be told "
+            f"from. {roi}"]
+    if "best_px" in d:
+        return [d["best_px"]], [f"1 (cyan): the refused candidate. {roi}"]
+    shown = list(zip(d.get("looked_at_px", []), d.get("looked_at_why", []), strict=False))
+    if not shown:
+        return [], []
+    legend = [", ".join(f"{k + 1} ({_NAMES[k]})" for k in range(len(shown)))
+              + ": the strongest lines looked at, each refused:"]
+    legend += [f"{k + 1}: {why.split(' (')[0]}" for k, (_, why) in enumerate(shown)]
+    return [px for px, _ in shown], legend
 
 
 def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = None,
                  message: str | None = None, max_width: int = 1600,
-                 rivals_px: Sequence[ArrayLike] = ()) -> NDArray[np.uint8]:
+                 rivals_px: Sequence[ArrayLike] = (), legend: Sequence[str] = ()
+                 ) -> NDArray[np.uint8]:
     """BGR uint8 picture: ``image`` dimmed, the seam in green, ends in orange, text on top.
 
     ``detection`` may be None (a failed detection), then ``message`` says why; with both, the
     detection was refused for a single-image answer (two readings, drawn). ``rivals_px``: the
-    centrelines (each (N, 2) image px) a refusal could not choose between, strongest first,
+    centrelines (each (N, 2) image px) a refusal drew attention to (:func:`refused_lines`),
     drawn in :data:`RIVAL_COLOURS` and numbered, so that a person sees which line to give a
-    ``--roi`` around. The picture is shrunk to at most ``max_width`` px wide (drawing is done at
-    full resolution first).
+    ``--roi`` around; ``legend``: what to write of them, after ``message``. The picture is
+    shrunk to at most ``max_width`` px wide (drawing is done at full resolution first).
     """
     img = image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
     out = (img.astype(np.float32) * 0.75).astype(np.uint8)
@@ -100,12 +118,7 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
                          "a cut face inside the gap rather than a shadow beside it")
     if message:
         lines.append(message)
-    if len(rivals_px) == 1:
-        lines.append("1 (cyan): the refused candidate. Give a --roi around the joint, or a "
-                     "nominal seam hint")
-    elif len(rivals_px) > 1:
-        lines.append("1 (cyan): the strongest candidate; 2 (magenta): the line it could not be "
-                     "told from. Give a --roi around the joint, or a nominal seam hint")
+    lines += legend
     y = 40 * scale_line
     colour = (40, 230, 40) if detection is not None and not message else (60, 60, 255)
     # Hershey simplex at 0.7 x scale_line: about 12 x scale_line px a character.
@@ -130,5 +143,6 @@ def outcome_overlay(image: NDArray[np.uint8], outcome: SeamDetection | Exception
     ambiguous refusal's lines drawn).
     """
     if isinstance(outcome, Exception):
-        return draw_overlay(image, None, f"NO SEAM: {outcome}", rivals_px=refused_lines(outcome))
+        drawn, legend = refused_lines(outcome)
+        return draw_overlay(image, None, f"NO SEAM: {outcome}", rivals_px=drawn, legend=legend)
     return draw_overlay(image, outcome)
