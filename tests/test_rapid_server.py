@@ -232,13 +232,13 @@ def test_an_aborted_move_is_reported_at_point_0_by_both():
 def test_the_client_raises_what_the_protocol_says_for_every_error_code():
     import re
 
-    from drivers.abb.abb_robot import _ERROR_CLASSES
+    from drivers.abb.abb_errors import ERROR_CLASSES
 
     doc = (RAPID_DIR.parents[2] / "docs" / "protocol.md").read_text()
     rows = re.findall(r"^\| (\d\d) \| [^|]+\| `(\w+)` \|$", doc, re.M)
     assert len(rows) >= 15 and {"14", "15"} <= {c for c, _ in rows}
     assert {int(c): name for c, name in rows} == {
-        c: cls.__name__ for c, cls in _ERROR_CLASSES.items()}
+        c: cls.__name__ for c, cls in ERROR_CLASSES.items()}
 
 
 def test_an_error_while_serving_is_answered_and_does_not_stop_a_running_motion():

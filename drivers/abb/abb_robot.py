@@ -19,16 +19,14 @@ from numpy.typing import ArrayLike
 
 from controller.errors import (
     InputError,
-    JointLimitError,
     LinkError,
     ProtocolError,
-    ReachabilityError,
     RobotFault,
     SafetyError,
-    SeamguideError,
 )
 from controller.geometry.poses import Pose, pos_quat_from_pose, pose_error, pose_from_pos_quat
 from drivers.abb import abb_codec as codec
+from drivers.abb.abb_errors import raise_for
 from drivers.abb.abb_link import AbbLink
 from drivers.robot_commands import (
     MoveJoints,
@@ -43,18 +41,6 @@ from drivers.robot_interface import DEFAULT_TIMEOUT_S, Event, MotionHandle, Moti
 _PUMP_SLICE_S = 0.05  # longest a waiter holds the link lock (abort() gets in between)
 # how close the last linear move's target must be to a path's start for a circle from it
 _AT_START_MM, _AT_START_DEG = 0.01, 0.01
-_ERROR_CLASSES: dict[int, type[SeamguideError]] = {
-    11: ProtocolError, 12: ProtocolError, 13: LinkError, 14: ProtocolError, 15: RobotFault,
-    20: RobotFault, 21: ProtocolError,
-    22: RobotFault, 23: SafetyError, 24: ProtocolError, 25: RobotFault, 30: ReachabilityError,
-    31: JointLimitError, 40: RobotFault, 41: RobotFault, 50: SafetyError}
-
-def _raise_for(reply: codec.Reply, request: str) -> None:
-    if reply.ok:
-        return
-    cls = _ERROR_CLASSES.get(reply.code, RobotFault)
-    raise cls(f"the controller refused {request!r}: ER {reply.code} {reply.text}",
-              request=request, code=reply.code, reply=reply.text)
 
 
 class AbbRobot(Robot):
@@ -102,7 +88,7 @@ class AbbRobot(Robot):
             if err.details.get("restarted"):
                 self._recover_after_restart()
             raise
-        _raise_for(reply, body)
+        raise_for(reply, body)
         return reply.data
 
     def _recover_after_restart(self) -> None:
