@@ -22,15 +22,21 @@ def _app(environ: dict[str, Any], start_response: Any) -> list[bytes]:
     return [b"ok"]
 
 
-def test_the_loop_closes_its_own_channels_and_ends(monkeypatch: pytest.MonkeyPatch) -> None:
-    closed_by: list[str] = []
+@pytest.fixture
+def closed_by(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The names of the threads that call ``wasyncore.close_all``, in order."""
+    names: list[str] = []
     real = wasyncore.close_all
 
     def spy(map: Any = None, ignore_all: bool = False) -> None:
-        closed_by.append(threading.current_thread().name)
+        names.append(threading.current_thread().name)
         real(map, ignore_all)
 
     monkeypatch.setattr(wasyncore, "close_all", spy)
+    return names
+
+
+def test_the_loop_closes_its_own_channels_and_ends(closed_by: list[str]) -> None:
     server = StationServer(_app, "127.0.0.1", 0, 65536)
     server.start()
     with urllib.request.urlopen(server.url + "/", timeout=10) as r:
@@ -40,16 +46,7 @@ def test_the_loop_closes_its_own_channels_and_ends(monkeypatch: pytest.MonkeyPat
     assert server._thread is not None and not server._thread.is_alive()
 
 
-def test_a_stop_that_times_out_leaves_the_closing_to_the_loop(monkeypatch: pytest.MonkeyPatch
-                                                              ) -> None:
-    closed_by: list[str] = []
-    real = wasyncore.close_all
-
-    def spy(map: Any = None, ignore_all: bool = False) -> None:
-        closed_by.append(threading.current_thread().name)
-        real(map, ignore_all)
-
-    monkeypatch.setattr(wasyncore, "close_all", spy)
+def test_a_stop_that_times_out_leaves_the_closing_to_the_loop(closed_by: list[str]) -> None:
     server = StationServer(_app, "127.0.0.1", 0, 65536)
     server.start()
     trigger = server._server.trigger
