@@ -9,6 +9,7 @@ The real controller and the mock controller are driven by this same class.
 
 from __future__ import annotations
 
+import contextlib
 import random
 import time
 from collections.abc import Sequence
@@ -140,7 +141,8 @@ class AbbRobot(Robot):
         try:
             self._open()
         except BaseException:
-            self.close()
+            with contextlib.suppress(Exception):  # the error that ended open() is the one to see
+                self.close()
             raise
 
     def _open(self) -> None:
