@@ -382,7 +382,7 @@ def test_a_line_running_beside_the_seam_makes_it_ambiguous(offset_px, score, amb
 
 
 def test_overlay_text_is_wrapped_not_cut() -> None:
-    from controller.vision.seam_overlay import MAX_TEXT_LINES, text_lines
+    from controller.vision.seam_overlay import MAX_TEXT_LINES, overlay_text, text_lines
 
     parts = [f"candidate {k}: dark line of {300 + k} px fades out inside a sheet" for k in range(4)]
     reason = "no weld seam found in the image (" + "; ".join(parts) + ")"
@@ -393,3 +393,9 @@ def test_overlay_text_is_wrapped_not_cut() -> None:
     assert " ".join(lines[1:]).split() == reason.split()
     many = text_lines([reason] * 10, 50)
     assert len(many) == MAX_TEXT_LINES and many[-1].endswith(" ...")
+    # The legend of the lines drawn stays whole: the long message is cut short before it.
+    legend = ["1 (cyan), 2 (magenta): the strongest lines looked at, each refused:",
+              "1: dark line of 712 px fades out inside a sheet", "2: valley path too shallow"]
+    text = overlay_text([reason] * 10, legend, 50)
+    assert len(text) == MAX_TEXT_LINES and " ".join(text).endswith(" ".join(legend))
+    assert overlay_text([reason], [], 50) == text_lines([reason], 50)

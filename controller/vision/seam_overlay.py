@@ -23,16 +23,26 @@ def _fixed(pts: NDArray[Any]) -> NDArray[np.int32]:
 MAX_TEXT_LINES = 14
 
 
-def text_lines(texts: list[str], width: int) -> list[str]:
-    """``texts`` wrapped to ``width`` characters a line, at most :data:`MAX_TEXT_LINES` lines.
+def text_lines(texts: list[str], width: int, max_lines: int = MAX_TEXT_LINES) -> list[str]:
+    """``texts`` wrapped to ``width`` characters a line, at most ``max_lines`` lines.
 
     A refusal's reasons run to several hundred characters; cut at one line, the picture would
     lose the reason a person opened it for. Past the last line, "..." says there is more.
     """
     out = [w for t in texts for w in (textwrap.wrap(t, max(width, 20)) or [""])]
-    if len(out) > MAX_TEXT_LINES:
-        out = out[:MAX_TEXT_LINES - 1] + [out[MAX_TEXT_LINES - 1][: max(width, 20) - 4] + " ..."]
+    if len(out) > max_lines:
+        out = out[:max_lines - 1] + [out[max_lines - 1][: max(width, 20) - 4] + " ..."]
     return out
+
+
+def overlay_text(texts: list[str], legend: Sequence[str], width: int) -> list[str]:
+    """The picture's text: ``texts`` then ``legend``, wrapped (:func:`text_lines`).
+
+    At most :data:`MAX_TEXT_LINES` lines; the legend names the lines drawn, so ``texts`` are
+    cut short before it is (it keeps up to half the lines).
+    """
+    told = text_lines(list(legend), width, MAX_TEXT_LINES // 2) if legend else []
+    return text_lines(texts, width, MAX_TEXT_LINES - len(told)) + told
 
 
 #: BGR colours of the lines a refusal drew attention to, in order: cyan, magenta, light
@@ -118,11 +128,10 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
                          "a cut face inside the gap rather than a shadow beside it")
     if message:
         lines.append(message)
-    lines += legend
     y = 40 * scale_line
     colour = (40, 230, 40) if detection is not None and not message else (60, 60, 255)
     # Hershey simplex at 0.7 x scale_line: about 12 x scale_line px a character.
-    for text in text_lines(lines, (W - 40 * scale_line) // (12 * scale_line)):
+    for text in overlay_text(lines, legend, (W - 40 * scale_line) // (12 * scale_line)):
         cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
                     0.7 * scale_line, (0, 0, 0), 4 * scale_line, cv2.LINE_AA)
         cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
