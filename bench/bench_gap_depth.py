@@ -83,12 +83,13 @@ def photo_rows() -> list[dict[str, Any]]:
 
 def _sim_view(item: tuple[list[Any], int, str]) -> dict[str, Any] | None:
     from bench.detect_cases import load_case, view_truth
-    from controller.vision.seam_detect import _as_grey
 
     case, v, verdict = item
     imgs, z = load_case(tuple(case))
     t = view_truth(z, v)
-    got = gap_figures(_as_grey(imgs[v]), t["seam_px"], float(np.median(t["gap_px"])))
+    img = imgs[v]
+    grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)  # as the detector
+    got = gap_figures(grey, t["seam_px"], float(t["gap_px"]))
     if got is None:
         return None
     return {"family": str(z["family"]), "verdict": verdict, "core": got[0], "ridge": got[1]}
@@ -119,11 +120,13 @@ def markdown(photos: list[dict[str, Any]], sim: list[dict[str, Any]]) -> str:
     for fam, rows in sorted(by_family.items()):
         out.append(f"| simulator, {fam} | {len(rows)} | {_q([r['core'] for r in rows])} | "
                    f"{_q([r['ridge'] for r in rows])} |")
-    out += ["", "| look | " + " | ".join(f"core < {b}" if np.isfinite(b) else "core >= 0.75"
-                                         for b in BINS) + " |", "|---" * (len(BINS) + 1) + "|"]
+    edges = list(zip((0.0, *BINS[:-1]), BINS, strict=True))
+    heads = [f"core < {hi}" if lo == 0 else (f"{lo}-{hi}" if np.isfinite(hi) else f">= {lo}")
+             for lo, hi in edges]
+    out += ["", "| look | " + " | ".join(heads) + " |", "|---" * (len(BINS) + 1) + "|"]
     for fam, rows in sorted(by_family.items()):
         cells = []
-        for lo, hi in zip((0.0, *BINS[:-1]), BINS, strict=True):
+        for lo, hi in edges:
             inbin = [r for r in rows if lo <= r["core"] < hi]
             found = sum(r["verdict"] == "found" for r in inbin)
             wrong = sum(r["verdict"] not in ("found", "refused") for r in inbin)
