@@ -21,13 +21,19 @@ def _cand(x_end: float) -> Candidate:
                      score=1000.0, end_kinds=("sheet border", "image border"))
 
 
+def _read(img: np.ndarray, x_end: float) -> tuple[tuple[float, float | None, bool],
+                                                   tuple[str, str]]:
+    """What the way to the edge shows from an end at ``x_end``; the end kinds after the check."""
+    c = _cand(x_end)
+    correct_edge_ends(img, LUT, [c])
+    return gap_seen_to_edge(img, LUT, _points(x_end), 3.0), c.end_kinds
+
+
 def test_a_gap_running_out_of_the_image_is_seen_to_the_edge():
     img = _render(_sheets(3.0), 1)
-    dist, share, over_table = gap_seen_to_edge(img, LUT, _points(980.0), 3.0)
+    (dist, share, over_table), kinds = _read(img, 980.0)
     assert abs(dist - 19.5) < 0.6 and share == 1.0 and not over_table
-    c = _cand(980.0)
-    correct_edge_ends(img, LUT, [c])
-    assert c.end_kinds == ("sheet border", "image border")
+    assert kinds == ("sheet border", "image border")
 
 
 def test_a_gap_covered_up_to_the_edge_leaves_the_image_under_the_patch():
@@ -36,11 +42,9 @@ def test_a_gap_covered_up_to_the_edge_leaves_the_image_under_the_patch():
     m = _sheets(3.0)
     m[:, 950 * S:] = 255
     img = _render(m, 2)
-    dist, share, over_table = gap_seen_to_edge(img, LUT, _points(944.0), 3.0)
+    (dist, share, over_table), kinds = _read(img, 944.0)
     assert share < 0.2 and not over_table
-    c = _cand(944.0)
-    correct_edge_ends(img, LUT, [c])
-    assert c.end_kinds == ("sheet border", "image border")
+    assert kinds == ("sheet border", "image border")
 
 
 def test_sheets_ending_before_the_edge_make_no_image_border_end():
@@ -48,11 +52,9 @@ def test_sheets_ending_before_the_edge_make_no_image_border_end():
     m = _sheets(3.0)
     m[:, 960 * S:] = 0
     img = _render(m, 3)
-    dist, share, over_table = gap_seen_to_edge(img, LUT, _points(956.0), 3.0)
+    (dist, share, over_table), kinds = _read(img, 956.0)
     assert share < 0.2 and over_table
-    c = _cand(956.0)
-    correct_edge_ends(img, LUT, [c])
-    assert c.end_kinds == ("sheet border", "sheet border")
+    assert kinds == ("sheet border", "sheet border")
     # A rejected line is not this check's business.
     c = _cand(956.0)
     c.why_rejected = "dark line of 756 px fades out inside a sheet"

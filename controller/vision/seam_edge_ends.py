@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.vision.seam_decision import arc_length
-from controller.vision.seam_ends import _border_crossing, darker_than_sheets
+from controller.vision.seam_ends import border_crossing, darker_than_sheets
 from controller.vision.seam_params import F64, Candidate
 from controller.vision.seam_profiles import bilinear
 from controller.vision.seam_wedge import sheet_levels
@@ -54,7 +54,7 @@ def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: floa
     tang = pts[-1] - pts[j]
     tang = tang / (np.linalg.norm(tang) + 1e-12)
     nrm = np.array([-tang[1], tang[0]])
-    dist = _border_crossing(pts[-1], tang, W, H, 0.0)
+    dist = border_crossing(pts[-1], tang, W, H, 0.0)
     w = max(width_px, 1.5)
     os_ = np.arange(-(w / 2 + 8.0), w / 2 + 8.0 + 1e-9, 0.5)
     core, left, right = np.abs(os_) <= w / 2 + 1.0, os_ <= -(w / 2 + 4.0), os_ >= w / 2 + 4.0

@@ -227,7 +227,7 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
         # The border crosses one side of the line only: one plate turns away, the other side
         # goes on (a plate's outer edge at its corner, a slot's end). Not where a joint ends.
         k_line = None
-    k_border = _border_crossing(e_pt, tang, W, H, float(ks[-1]))
+    k_border = border_crossing(e_pt, tang, W, H, float(ks[-1]))
     kind = "unsure sheet border" if unsure else "sheet border"
     if k_line is not None:
         k = k_line
@@ -255,7 +255,7 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
         if kw is not None:
             return kw, "sheet border", None, outer_only
         beyond = gap_resumes(grey, lut, e_pt + k * tang, ahead, w_med,
-                             _border_crossing(e_pt + k * tang, ahead, W, H, 0.0))
+                             border_crossing(e_pt + k * tang, ahead, W, H, 0.0))
         if beyond is not None:
             # What stopped the gap is a patch on the joint (a tack weld, spatter, slag, a marker
             # ring), not the end of the sheets nor of a line: the same gap goes on beyond it.
@@ -343,7 +343,7 @@ def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
         if not (0 <= start[0] <= W - 1 and 0 <= start[1] <= H - 1):
             continue
         # A step needs 20 px of image after it to be seen to last.
-        room = _border_crossing(start, tang, W, H, float(ks[-1])) - 20.0
+        room = border_crossing(start, tang, W, H, float(ks[-1])) - 20.0
         if any(k < room for k in side_crossings(grey, lut, start + np.outer(ks, tang), ks,
                                                 entered=True)):
             return True
@@ -356,8 +356,11 @@ _FAR_PX = 48.0  # beside the joint, past the half width of a tack bead
 _VERIFY_PX = 80.0 + RESUME_RUN_PX
 
 
-def _border_crossing(e_pt: F64, tang: F64, W: int, H: int, default: float) -> float:
-    """Distance along ``tang`` from ``e_pt`` (inside the image) to the image border (px)."""
+def border_crossing(e_pt: F64, tang: F64, W: int, H: int, default: float) -> float:
+    """Distance along ``tang`` from ``e_pt`` (inside the image) to the image border (px).
+
+    ``default`` when ``tang`` is zero. The border is the outer edge of the edge pixels.
+    """
     ts = []
     for lo, hi, x, d in ((-0.5, W - 0.5, e_pt[0], tang[0]), (-0.5, H - 0.5, e_pt[1], tang[1])):
         if d > 1e-9:

@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_ends import _border_crossing, end_offset
+from controller.vision.seam_ends import border_crossing, end_offset
 from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
 from controller.vision.seam_path_ends import END_COVER_PX, follow_ends, trim_at_sheet_borders
 from controller.vision.seam_profiles import bilinear, fit_at, resample
@@ -146,7 +146,7 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
         tang /= np.linalg.norm(tang) + 1e-12
         k_end, kind, _ = end_offset(grey, lut, e_pt, tang, w_med)
         if kind != "image border" and _near_border(e_pt, W, H, 2.0 * f + 4.0):
-            kind, k_end = "image border", _border_crossing(e_pt, tang, W, H, 0.0)
+            kind, k_end = "image border", border_crossing(e_pt, tang, W, H, 0.0)
         # The end where the sheets (or the image) end: the path trimmed there, or extended.
         along = (centre - e_pt) @ tang
         n = max(int(np.sum(along < k_end - 0.5 * p.step_px)), 2)
