@@ -79,9 +79,15 @@ from controller.vision.seam_decision import (
 from controller.vision.seam_edge_ends import correct_edge_ends
 from controller.vision.seam_parallel import no_parallel_valley
 from controller.vision.seam_params import F64, Candidate, DetectParams
-from controller.vision.seam_pattern import mark_table_lines, straight_lines, straightener
+from controller.vision.seam_pattern import (
+    Straighten,
+    mark_table_lines,
+    straight_lines,
+    straightener,
+)
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import robust_candidates
+from controller.vision.seam_smaller import moved, smaller_look
 
 #: Marks the lines of a table among candidates (seam_pattern.mark_table_lines, bound to an image).
 TableCheck = Callable[[list[Candidate]], None]
@@ -192,13 +198,36 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
                          image_size=[W, H], calibration_size=[camera.width, camera.height])
     x0, y0, x1, y1 = _check_roi(roi, W, H)
     sub = grey[y0:y1, x0:x1]
-    lut = linear_lut(p.gamma)
     hint_arr = None if hint is None else np.asarray(hint, dtype=np.float64).reshape(-1, 2)
     if hint_arr is not None:
         hint_arr = hint_arr - [x0, y0]
+    straighten = None if camera is None else straightener(camera, x0, y0)
+    try:
+        return _detect_in(sub, hint_arr, p, straighten, trace, (x0, y0, x1, y1))
+    except SeamNotFound:
+        if not p.smaller:
+            raise
+        # A gap wider and softer than the full-size search measures (a close-up): the same
+        # search on the image shrunk (seam_smaller), kept only where it holds at two scales.
+        look = functools.partial(_detect_in, trace=None, box=None)
+        small = smaller_look(sub, hint_arr, p, look, straighten)
+        if small is None:
+            raise
+        return moved(small, 1.0, (x0, y0))
+
+
+def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
+               straighten: Straighten | None, trace: list[list[Candidate]] | None,
+               box: tuple[int, int, int, int] | None) -> SeamDetection:
+    """:func:`detect_seam`'s search in ``sub`` (px of ``sub``, as ``hint_arr``).
+
+    ``sub`` is the region ``box`` (x0, y0, x1, y1) of the image: results and errors in image
+    px (None: ``sub`` is the image searched, px of ``sub``).
+    """
+    x0, y0, x1, y1 = box if box is not None else (0, 0, sub.shape[1], sub.shape[0])
+    lut = linear_lut(p.gamma)
     cands, seen, valleys, factor = coarse_candidates(sub, lut, p)
     lines = functools.cache(lambda: straight_lines(valleys, factor, p))
-    straighten = None if camera is None else straightener(camera, x0, y0)
     table = functools.partial(mark_table_lines, lines=lines, p=p, straighten=straighten)
     cands = _refined(sub, lut, cands, table, hint_arr, p)
     details: dict[str, Any] = {"candidates_seen": seen, "roi": [x0, y0, x1, y1]}

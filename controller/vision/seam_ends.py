@@ -65,11 +65,11 @@ def _tail(guide: F64, nrm: F64, fit: dict[str, NDArray[Any]], hw: float, w_med: 
     # the last measured one held to the end; then smoothed (one profile is noisy).
     o = np.interp(idx, idx[ok], off[ok])
     if len(o) >= 5:
-        o = _moving_line(o, min(len(o) // 2 * 2 - 1, 7))
+        o = moving_line(o, min(len(o) // 2 * 2 - 1, 7))
     return np.asarray(guide + nrm * o[:, None])
 
 
-def _moving_line(x: F64, win: int) -> F64:
+def moving_line(x: F64, win: int) -> F64:
     """``savgol_filter(x, win, 1, mode="interp")`` (odd ``win`` <= len(x)) much faster.
 
     A straight line fitted over a window is its mean at the centre: a moving average inside, and

@@ -51,6 +51,9 @@ class DetectParams:
     candidate at least this strong relative to the best makes the result ambiguous.
     ``min_confidence``: below this the detection is refused (:class:`SeamNotFound`); an open end
     caps the confidence at 0.45, so a seam not seen to a border is refused by default.
+    ``smaller``: when the search finds no seam, search the image shrunk by 2 and keep a seam
+    found there only where the gap is soft at full size and the same seam is found shrunk by 3
+    (:mod:`controller.vision.seam_smaller`: a close-up's wide, defocused gap).
     ``robust``: when no candidate of the profile model passes, look for the seam as a whole-image
     valley path (:mod:`controller.vision.seam_robust`: ragged, wide, covered or dark gaps).
     ``straight_px``: a line whose points lie within this RMS distance of their principal axis is
@@ -86,6 +89,7 @@ class DetectParams:
     min_confidence: float = 0.5
     max_candidates: int = 4
     robust: bool = True
+    smaller: bool = True
     straight_px: float = 2.5
     pattern_offset_px: float = 200.0
     max_band_px: float = 0.0

@@ -1,0 +1,133 @@
+"""The look at the image shrunk (controller.vision.seam_smaller): a close-up's wide, soft gap."""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from drawn_plates import S, render
+
+from bench import detect_cases
+from bench.detect_score import score_view
+from controller.errors import SeamNotFound
+from controller.vision import seam_detect, seam_smaller
+from controller.vision.seam_detect import DetectParams, SeamDetection, detect_seam
+from controller.vision.seam_smaller import moved, same_seam, smaller_look
+
+GAP = (590.0, 610.0)  # rows of the gap's edges: 20 px wide, wider than the 16 px searched
+ENDS = ((300.0, 600.0), (1300.0, 600.0))  # where the two plates stop facing each other
+
+
+def _plates(blur_px: float, seed: int = 3) -> np.ndarray:
+    """Two plates on a dark table meeting at a 20 px gap, both ending inside the image, the
+    whole drawing blurred by ``blur_px`` (sigma, px) on top of the drawing's own 1 px."""
+
+    def fill(m: np.ndarray) -> None:
+        m[:] = 40.0  # the table
+        x0, x1 = ENDS[0][0] * S, ENDS[1][0] * S
+        m[int(250 * S):int(GAP[0] * S), int(x0):int(x1)] = 170.0
+        m[int(GAP[1] * S):int(950 * S), int(x0):int(x1)] = 150.0
+        m[int(GAP[0] * S):int(GAP[1] * S), int(x0):int(x1)] = 22.0  # the gap's floor
+        if blur_px > 0:
+            cv2.GaussianBlur(m, (0, 0), blur_px * S, dst=m)
+
+    return render(fill, seed)
+
+
+def _look_shrunk(img: np.ndarray) -> SeamDetection | None:
+    p = DetectParams()
+    look = functools.partial(seam_detect._detect_in, trace=None, box=None)
+    return smaller_look(img, None, p, look, None)
+
+
+def test_a_wide_defocused_gap_is_found_on_the_image_shrunk() -> None:
+    det = _look_shrunk(_plates(blur_px=2.8))
+    assert det is not None
+    assert det.end_kinds == ("joint_end", "joint_end")
+    assert np.max(np.abs(det.points_px[:, 1] - 600.0)) < 1.5  # measured again at full size
+    for got, want in zip(det.endpoints_px, ENDS, strict=True):
+        assert np.linalg.norm(got - want) < 6.0
+    assert 16.0 < det.gap_width_px < 24.0
+    assert det.stats["scale"] == 2.0 and det.stats["edge_blur_px"] >= seam_smaller.MIN_BLUR_PX
+    assert any("shrunk by 2" in r for r in det.reasons)
+
+
+def test_a_sharp_wide_band_is_not_looked_for_shrunk(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Sharp, the full-size image holds detail the shrunk one loses (a hairline gap beside a
+    # shadow or a cut face reads, shrunk, as one wide band): the full-size verdict stands.
+    img = _plates(blur_px=0.0)
+    assert _look_shrunk(img) is None
+    # The blur is what refuses it: without that condition the shrunk look returns it.
+    monkeypatch.setattr(seam_smaller, "MIN_BLUR_PX", 0.0)
+    assert _look_shrunk(img) is not None
+
+
+def test_detect_seam_looks_shrunk_only_where_the_full_size_search_refuses(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    img = _plates(blur_px=2.8)
+    assert "scale" not in detect_seam(img).stats  # found at full size: no second look
+    full_size = seam_detect._detect_in
+
+    def refusing(sub, hint, p, straighten, trace, box):  # type: ignore[no-untyped-def]
+        if box is not None:  # the full-size search (the shrunk ones pass no box)
+            raise SeamNotFound("no weld seam found in the image (test)")
+        return full_size(sub, hint, p, straighten, trace, box)
+
+    monkeypatch.setattr(seam_detect, "_detect_in", refusing)
+    with pytest.raises(SeamNotFound, match="test"):
+        detect_seam(img, params=DetectParams(smaller=False))
+    # Searched in a region of interest, the shrunk look's seam comes back in image px.
+    det = detect_seam(img, roi=(200, 150, 1450, 1050))
+    assert det.stats["scale"] == 2.0
+    for got, want in zip(det.endpoints_px, ENDS, strict=True):
+        assert np.linalg.norm(got - want) < 6.0
+
+
+def test_a_simulated_close_up_is_found_on_the_image_shrunk(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A close-up of the simulator (dark, noisy, defocused, a 21 px gap band between two rounded
+    # plate corners), rendered here: the full-size search refuses it, the shrunk look finds it.
+    monkeypatch.setattr(detect_cases, "CACHE", tmp_path)
+    case = ("wide", "medium", "tuning", 10073)
+    detect_cases.render_case(case)
+    imgs, z = detect_cases.load_case(case)
+    truth = detect_cases.view_truth(z, 1)
+    assert truth["family"] == "closeup" and truth["gap_px"] > 20.0
+    truth["image_size"] = (imgs[1].shape[1], imgs[1].shape[0])
+    with pytest.raises(SeamNotFound):
+        detect_seam(imgs[1], params=DetectParams(smaller=False))
+    det = detect_seam(imgs[1])
+    assert det.stats["scale"] == 2.0
+    said = [k for k in det.end_kinds]
+    assert score_view(det.points_px, truth, said)["result"] == "found"
+
+
+def _det(points: list[tuple[float, float]], kinds: tuple[str, str] = ("joint_end", "joint_end"),
+         width: float = 20.0) -> SeamDetection:
+    P = np.asarray(points, dtype=np.float64)
+    return SeamDetection(points_px=P, confidence=0.9, reasons=[], endpoints_px=P[[0, -1]],
+                         width_px=np.full(len(P), width), end_kinds=kinds,
+                         stats={"length_px": 10.0})
+
+
+def test_moved_maps_pixel_centres_and_scales_widths() -> None:
+    d = _det([(0.0, 0.0), (10.0, 0.0)])
+    m = moved(d, 2.0, (100.0, 50.0))
+    # The shrunk pixel 0 covers pixels 0 and 1: its centre is 0.5.
+    assert m.points_px.tolist() == [[100.5, 50.5], [120.5, 50.5]]
+    assert m.endpoints_px.tolist() == m.points_px.tolist()
+    assert m.gap_width_px == 40.0 and m.stats["length_px"] == 20.0
+    assert moved(d, 1.0, (5.0, 0.0)).points_px.tolist() == [[5.0, 0.0], [15.0, 0.0]]
+
+
+def test_two_readings_are_the_same_seam_only_with_the_same_ends() -> None:
+    line = [(float(x), 600.0) for x in range(300, 1301, 50)]
+    a = _det(line)
+    assert same_seam(a, _det(line[::-1]))  # the other order is the same seam
+    assert same_seam(a, _det([(x + 3.0, y + 2.0) for x, y in line]))
+    assert not same_seam(a, _det(line, kinds=("joint_end", "image_border")))
+    assert not same_seam(a, _det(line[:-1]))  # an end 50 px short
+    assert not same_seam(a, _det([(x, y + 6.0) for x, y in line]))  # beside it: 6 > 20 / 4
