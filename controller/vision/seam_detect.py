@@ -35,6 +35,10 @@ joint's, so this looks for the *shape*, not for edges:
    depth of a grid twice as fine pooled onto the coarse one (a hairline gap straddling two
    coarse pixels shows half its depth in each and falls apart), keeping only lines at most a
    coarse pixel wide; then the seam as a whole-image valley path (ragged, wide, covered gaps).
+7. **The image shrunk** when all of that finds no seam: the same search on the image shrunk by 2,
+   for a gap wider and softer than the full-size scales (a defocused close-up), kept only where
+   the gap is blurred at full size and the search shrunk by 3 finds the same seam
+   (:mod:`controller.vision.seam_smaller`).
 
 The steps live in :mod:`controller.vision.seam_coarse` (1, 2),
 :mod:`controller.vision.seam_profiles` (3),
@@ -186,7 +190,8 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     distance), :class:`InputError` (not a uint8 image, wrong size, bad ROI).
     ``trace``: when given, every list of candidates a choice is made over is appended to it, in
     order (the first way's; with the finer grid's; the valley paths'), ROI px: what
-    ``bench.detect_funnel`` reads to say where a joint was lost.
+    ``bench.detect_funnel`` reads to say where a joint was lost (the full-size search only; the
+    look at the image shrunk is not traced).
     """
     p = params or DetectParams()
     grey = _as_grey(image)
