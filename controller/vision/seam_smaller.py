@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cv2
 import numpy as np
@@ -39,14 +39,12 @@ from numpy.typing import NDArray
 from controller.errors import SeamguideError
 from controller.vision.seam_coarse import nearest_px
 from controller.vision.seam_decision import arc_length
+from controller.vision.seam_detection import SeamDetection
 from controller.vision.seam_ends import moving_line
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_pattern import Straighten
 from controller.vision.seam_profiles import fit_at, linear_lut
 from controller.vision.seam_shadow import split_shadow
-
-if TYPE_CHECKING:
-    from controller.vision.seam_detect import SeamDetection
 
 SCALE = 2  # the image is searched again shrunk by this
 CONFIRM = 3  # and the seam found there must be found shrunk by this too
@@ -57,7 +55,7 @@ _SIDE_PX = 8.0  # full-size profiles reach this far past the gap's edges
 _MIN_PROFILES = 8  # full-size profiles that must fit the gap to measure it there
 
 #: The detector's search on an image: (grey, hint px or None, params, straighten) -> detection.
-Look = Callable[[NDArray[np.uint8], F64 | None, DetectParams, Straighten | None], "SeamDetection"]
+Look = Callable[[NDArray[np.uint8], F64 | None, DetectParams, Straighten | None], SeamDetection]
 
 
 def smaller_look(grey: NDArray[np.uint8], hint: F64 | None, p: DetectParams, look: Look,
