@@ -73,8 +73,8 @@ def smaller_look(grey: NDArray[np.uint8], hint: F64 | None, p: DetectParams, loo
     full = _measured_at_full_size(grey, lut, half, p)
     if full is None or full.stats["edge_blur_px"] < MIN_BLUR_PX:
         return None
-    third = _found_at(grey, CONFIRM, hint, p, look, straighten)
-    if third is None or not same_seam(full, third):
+    other = _found_at(grey, CONFIRM, hint, p, look, straighten)
+    if other is None or not same_seam(full, other):
         return None
     reason = (f"found on the image shrunk by {SCALE} and again by {CONFIRM}: the gap "
               f"({full.gap_width_px:.0f} px, edges blurred by {full.stats['edge_blur_px']:.1f} px)"
@@ -128,7 +128,7 @@ def moved(det: SeamDetection, scale: float | tuple[float, float],
                    stats=stats)
 
 
-def _found_at(grey: NDArray[np.uint8], f: int, hint: F64 | None, p: DetectParams, look: Look,
+def _found_at(grey: NDArray[np.uint8], f: float, hint: F64 | None, p: DetectParams, look: Look,
               straighten: Straighten | None) -> SeamDetection | None:
     """The detector's seam on ``grey`` shrunk by ``f``, in px of ``grey``; None: none found."""
     H, W = grey.shape
