@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import json
 from pathlib import Path
 
 import cv2
@@ -12,6 +13,7 @@ from drawn_plates import S, render
 
 from bench import detect_cases
 from bench.detect_score import score_view
+from controller.cli import main
 from controller.errors import SeamNotFound
 from controller.vision import seam_detect, seam_smaller
 from controller.vision.seam_detect import DetectParams, SeamDetection, detect_seam
@@ -86,23 +88,43 @@ def test_detect_seam_looks_shrunk_only_where_the_full_size_search_refuses(
         assert np.linalg.norm(got - want) < 6.0
 
 
-def test_a_simulated_close_up_is_found_on_the_image_shrunk(
-        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    # A close-up of the simulator (dark, noisy, defocused, a 21 px gap band between two rounded
-    # plate corners), rendered here: the full-size search refuses it, the shrunk look finds it.
-    monkeypatch.setattr(detect_cases, "CACHE", tmp_path)
-    case = ("wide", "medium", "tuning", 10073)
-    detect_cases.render_case(case)
-    imgs, z = detect_cases.load_case(case)
+@pytest.fixture(scope="module")
+def close_up(tmp_path_factory: pytest.TempPathFactory) -> tuple[np.ndarray, dict]:
+    """A close-up of the simulator (dark, noisy, defocused, a 21 px gap band between two rounded
+    plate corners), rendered here: (image, truth)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(detect_cases, "CACHE", tmp_path_factory.mktemp("cache"))
+        case = ("wide", "medium", "tuning", 10073)
+        detect_cases.render_case(case)
+        imgs, z = detect_cases.load_case(case)
     truth = detect_cases.view_truth(z, 1)
-    assert truth["family"] == "closeup" and truth["gap_px"] > 20.0
     truth["image_size"] = (imgs[1].shape[1], imgs[1].shape[0])
+    return imgs[1], truth
+
+
+def test_a_simulated_close_up_is_found_on_the_image_shrunk(close_up: tuple[np.ndarray, dict]
+                                                           ) -> None:
+    img, truth = close_up
+    assert truth["family"] == "closeup" and truth["gap_px"] > 20.0
+    # The full-size search refuses it; the shrunk look finds it.
     with pytest.raises(SeamNotFound):
-        detect_seam(imgs[1], params=DetectParams(smaller=False))
-    det = detect_seam(imgs[1])
+        detect_seam(img, params=DetectParams(smaller=False))
+    det = detect_seam(img)
     assert det.stats["scale"] == 2.0
-    said = [k for k in det.end_kinds]
-    assert score_view(det.points_px, truth, said)["result"] == "found"
+    assert score_view(det.points_px, truth, list(det.end_kinds))["result"] == "found"
+
+
+def test_seamguide_detect_says_the_seam_was_found_shrunk(
+        close_up: tuple[np.ndarray, dict], tmp_path: Path) -> None:
+    img, truth = close_up
+    png, out = tmp_path / "close_up.png", tmp_path / "seam.json"
+    cv2.imwrite(str(png), img)
+    assert main(["detect", str(png), "--output", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["stats"]["scale"] == 2.0 and doc["stats"]["edge_blur_px"] >= 2.0
+    assert doc["stats"]["way"] == "profiles, image shrunk by 2"
+    assert any("shrunk by 2 and again by 3" in r for r in doc["reasons"])
+    assert sorted(e["kind"] for e in doc["ends"]) == sorted(truth["end_kinds"])
 
 
 def _det(points: list[tuple[float, float]], kinds: tuple[str, str] = ("joint_end", "joint_end"),
