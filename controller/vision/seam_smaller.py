@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 
 from controller.errors import SeamguideError
 from controller.vision.seam_coarse import nearest_px
-from controller.vision.seam_decision import arc_length
+from controller.vision.seam_decision import JOINT_END, arc_length
 from controller.vision.seam_detection import SeamDetection
 from controller.vision.seam_ends import moving_line
 from controller.vision.seam_params import F64, DetectParams
@@ -179,9 +179,9 @@ def _measured_at_full_size(grey: NDArray[np.uint8], lut: F64, det: SeamDetection
     fit, shadow = split_shadow(two, pw)
     reach = pw.half_width_px + 3.0
     away = np.ones(len(P), bool)
-    if det.end_kinds[0] == "joint_end":
+    if det.end_kinds[0] == JOINT_END:
         away &= s >= reach
-    if det.end_kinds[1] == "joint_end":
+    if det.end_kinds[1] == JOINT_END:
         away &= s <= s[-1] - reach
     off = np.einsum("kd,kd->k", fit["centre"] - P, nrm)
     ok = fit["valid"] & away & (np.abs(off) < max(2.0, w / 4)) & (fit["width"] < 1.6 * w + 1.0)
