@@ -127,6 +127,12 @@ def test_seamguide_detect_says_the_seam_was_found_shrunk(
     assert sorted(e["kind"] for e in doc["ends"]) == sorted(truth["end_kinds"])
 
 
+def test_an_image_too_small_to_shrink_keeps_the_full_size_refusal() -> None:
+    # 40x50 px shrunk by 2 is under the 32 px the search needs: its InputError is not the answer.
+    with pytest.raises(SeamNotFound, match="no weld seam found"):
+        detect_seam(np.full((40, 50), 128, np.uint8))
+
+
 def _det(points: list[tuple[float, float]], kinds: tuple[str, str] = ("joint_end", "joint_end"),
          width: float = 20.0) -> SeamDetection:
     P = np.asarray(points, dtype=np.float64)
