@@ -123,7 +123,9 @@ def test_seamguide_detect_says_the_seam_was_found_shrunk(
     doc = json.loads(out.read_text())
     assert doc["stats"]["scale"] == 2.0 and doc["stats"]["edge_blur_px"] >= 2.0
     assert doc["stats"]["way"] == "profiles, image shrunk by 2"
-    assert any("shrunk by 2 and again by 3" in r for r in doc["reasons"])
+    # Said first: the search's own reasons that follow count px of the image shrunk by 2.
+    assert "shrunk by 2 and again by 3" in doc["reasons"][0]
+    assert "px of the image shrunk by 2" in doc["reasons"][0]
     assert sorted(e["kind"] for e in doc["ends"]) == sorted(truth["end_kinds"])
 
 

@@ -23,7 +23,8 @@ mean of the pixels it covers), and its seam is kept only where
 The kept seam's centreline is measured again at full size along the shrunk search's line
 (profiles as wide as its gap asks for, a shadow split off as the full-size search does:
 :mod:`controller.vision.seam_shadow`); its ends, their kinds, the occluded spans and the
-confidence are the shrunk search's, and a reason says how it was found.
+confidence are the shrunk search's, and a first reason says how it was found (the search's
+own reasons after it count px of the shrunk image).
 """
 
 from __future__ import annotations
@@ -76,10 +77,12 @@ def smaller_look(grey: NDArray[np.uint8], hint: F64 | None, p: DetectParams, loo
     other = _found_at(grey, CONFIRM, hint, p, look, straighten)
     if other is None or not same_seam(full, other):
         return None
+    # The search's own reasons count px of the image it searched: said so before them.
     reason = (f"found on the image shrunk by {SCALE} and again by {CONFIRM}: the gap "
               f"({full.gap_width_px:.0f} px, edges blurred by {full.stats['edge_blur_px']:.1f} px)"
-              " is wider and softer than the full-size search measures")
-    return replace(full, reasons=[*full.reasons, reason])
+              " is wider and softer than the full-size search measures; the lengths and widths "
+              f"below are px of the image shrunk by {SCALE}")
+    return replace(full, reasons=[reason, *full.reasons])
 
 
 def same_seam(a: SeamDetection, b: SeamDetection) -> bool:
