@@ -94,13 +94,35 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
     H, W = out.shape[:2]
     scale_line = max(1, int(round(W / 800)))
     lines: list[str] = []
-    for k, (line, colour) in enumerate(zip(rivals_px, RIVAL_COLOURS, strict=False)):
+    if detection is not None:
+        if message:  # returned by the detector, refused for a single-image answer
+            lines.append("green: the darker core's middle, the seam if the lighter part is a "
+                         "shadow beside the gap")
+        else:
+            lines.append(f"seam found, confidence {detection.confidence:.2f}")
+            lines += detection.reasons
+        if detection.band_px is not None:
+            lines.append("yellow: the whole dark band's middle, the seam if its lighter part is "
+                         "a cut face inside the gap rather than a shadow beside it")
+    if message:
+        lines.append(message)
+    y = 40 * scale_line
+    colour = (40, 230, 40) if detection is not None and not message else (60, 60, 255)
+    # Hershey simplex at 0.7 x scale_line: about 12 x scale_line px a character. The text goes
+    # first and the lines over it: a long text covers a third of the picture, the seam with it.
+    for text in overlay_text(lines, legend, (W - 40 * scale_line) // (12 * scale_line)):
+        cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
+                    0.7 * scale_line, (0, 0, 0), 4 * scale_line, cv2.LINE_AA)
+        cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
+                    0.7 * scale_line, colour, scale_line, cv2.LINE_AA)
+        y += 32 * scale_line
+    for k, (line, rival_colour) in enumerate(zip(rivals_px, RIVAL_COLOURS, strict=False)):
         rival = np.asarray(line, dtype=np.float64).reshape(-1, 2)
-        cv2.polylines(out, [_fixed(rival).reshape(-1, 1, 2)], False, colour, 2 * scale_line,
-                      cv2.LINE_AA, _SHIFT)
+        cv2.polylines(out, [_fixed(rival).reshape(-1, 1, 2)], False, rival_colour,
+                      2 * scale_line, cv2.LINE_AA, _SHIFT)
         mid = rival[len(rival) // 2]
         cv2.putText(out, str(k + 1), (int(mid[0]) + 12 * scale_line, int(mid[1])),
-                    cv2.FONT_HERSHEY_SIMPLEX, 1.2 * scale_line, colour, 2 * scale_line,
+                    cv2.FONT_HERSHEY_SIMPLEX, 1.2 * scale_line, rival_colour, 2 * scale_line,
                     cv2.LINE_AA)
     if detection is not None:
         pts = _fixed(detection.points_px)
@@ -117,26 +139,6 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
         if detection.band_px is not None:
             cv2.polylines(out, [_fixed(detection.band_px).reshape(-1, 1, 2)], False,
                           (0, 220, 255), scale_line, cv2.LINE_AA, _SHIFT)
-        if message:  # returned by the detector, refused for a single-image answer
-            lines.append("green: the darker core's middle, the seam if the lighter part is a "
-                         "shadow beside the gap")
-        else:
-            lines.append(f"seam found, confidence {detection.confidence:.2f}")
-            lines += detection.reasons
-        if detection.band_px is not None:
-            lines.append("yellow: the whole dark band's middle, the seam if its lighter part is "
-                         "a cut face inside the gap rather than a shadow beside it")
-    if message:
-        lines.append(message)
-    y = 40 * scale_line
-    colour = (40, 230, 40) if detection is not None and not message else (60, 60, 255)
-    # Hershey simplex at 0.7 x scale_line: about 12 x scale_line px a character.
-    for text in overlay_text(lines, legend, (W - 40 * scale_line) // (12 * scale_line)):
-        cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
-                    0.7 * scale_line, (0, 0, 0), 4 * scale_line, cv2.LINE_AA)
-        cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
-                    0.7 * scale_line, colour, scale_line, cv2.LINE_AA)
-        y += 32 * scale_line
     if max_width < W:
         f = max_width / W
         out = np.asarray(cv2.resize(out, (max_width, int(round(H * f))),
