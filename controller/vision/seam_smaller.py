@@ -44,7 +44,7 @@ from controller.vision.seam_detection import SeamDetection
 from controller.vision.seam_ends import moving_line
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_pattern import Straighten
-from controller.vision.seam_profiles import fit_at, linear_lut
+from controller.vision.seam_profiles import fit_at, linear_lut, resample
 from controller.vision.seam_shadow import split_shadow
 
 SCALE = 2  # the image is searched again shrunk by this
@@ -100,10 +100,16 @@ def same_seam(a: SeamDetection, b: SeamDetection) -> bool:
 
 def _distances(a: F64, b: F64) -> F64:
     """Distance (px) from each point of ``a`` to the polyline ``b`` (read every px along it)."""
-    s = arc_length(b)
-    q = np.arange(0.0, s[-1] + 1e-9, 1.0)
-    dense = np.column_stack([np.interp(q, s, b[:, 0]), np.interp(q, s, b[:, 1])])
-    return np.asarray(nearest_px(a, dense)[0], dtype=np.float64)
+    return np.asarray(nearest_px(a, resample(b, 1.0, extend=0.0)[0])[0], dtype=np.float64)
+
+
+def _scaled(P: F64, sx: float, sy: float, offset: tuple[float, float] = (0.0, 0.0)) -> F64:
+    """Points ``P`` (px) in an image ``sx`` x ``sy`` times as large, moved by ``offset``.
+
+    Pixel centres map as ``(p + 0.5) * s - 0.5``: the shrunk pixel 0 covers pixels 0 and 1,
+    centre 0.5.
+    """
+    return np.asarray((P + 0.5) * [sx, sy] - 0.5 + np.asarray(offset, float), np.float64)
 
 
 def moved(det: SeamDetection, scale: float | tuple[float, float],
@@ -118,7 +124,7 @@ def moved(det: SeamDetection, scale: float | tuple[float, float],
     k = (sx + sy) / 2
 
     def m(P: F64) -> F64:
-        return np.asarray((P + 0.5) * [sx, sy] - 0.5 + np.asarray(offset, float), np.float64)
+        return _scaled(P, sx, sy, offset)
 
     stats: dict[str, Any] = dict(det.stats)
     if "length_px" in stats:
@@ -139,13 +145,11 @@ def _found_at(grey: NDArray[np.uint8], f: float, hint: F64 | None, p: DetectPara
     small = np.asarray(cv2.resize(grey, (w, h), interpolation=cv2.INTER_AREA), dtype=np.uint8)
     sx, sy = W / w, H / h
 
-    def up(P: F64) -> F64:
-        return np.asarray((P + 0.5) * [sx, sy] - 0.5, dtype=np.float64)
-
     def down(P: F64) -> F64:
-        return np.asarray((P + 0.5) / [sx, sy] - 0.5, dtype=np.float64)
+        return _scaled(P, 1.0 / sx, 1.0 / sy)
 
-    small_straighten = None if straighten is None else (lambda P: down(straighten(up(P))))
+    small_straighten = (None if straighten is None
+                        else (lambda P: down(straighten(_scaled(P, sx, sy)))))
     # A band limit the job stated (px of the image) is f times fewer px of the shrunk one.
     ps = replace(p, max_band_px=p.max_band_px / f, min_gap_px=p.min_gap_px / f, smaller=False)
     try:
