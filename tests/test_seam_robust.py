@@ -3,15 +3,17 @@ pen line: synthetic images with exact truth, and the real photographs when prese
 
 import json
 import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from shared_data import needs, shared_data_dir
 
 from controller.errors import AmbiguousSeam, SeamNotFound
+from controller.vision import seam_robust
 from controller.vision.seam_border import border_line
-from controller.vision.seam_detect import detect_seam
-from controller.vision.seam_params import DetectParams
+from controller.vision.seam_detect import detect_seam, faded_lines
+from controller.vision.seam_params import Candidate, DetectParams
 from controller.vision.seam_path_ends import over_table
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import (
@@ -171,6 +173,49 @@ def test_a_dark_line_that_fades_out_inside_the_sheet_is_never_returned():
     for c in robust_candidates(grey, linear_lut(2.2), DetectParams()):
         if c.points is not None and np.median(np.abs(c.points[:, 0] - 500.0)) < 5:
             assert c.why_rejected  # the pen line is a candidate only to be rejected
+
+
+def test_two_paths_measured_onto_one_gap_are_one_candidate(monkeypatch: pytest.MonkeyPatch
+                                                         ) -> None:
+    # The path search can return a second path along the same gap that strays 14-20 px off it
+    # in its middle (too far for the raw paths to count as one line); both are measured onto
+    # the gap. Kept twice, the seam was its own rival (AmbiguousSeam: simulated close-up, hard
+    # tuning 10077 view 1) and a pen line's second path escaped the pen line's rejection.
+    img, xx, yy, xc = _sheets()
+    _ragged_gap(img, xx, yy, xc, 9.0)
+    grey = np.clip(img, 0, 255).astype(np.uint8)
+    f = seam_robust.work_factor(grey.shape)
+    found = seam_robust.find_paths
+
+    def twice(resp, thetas, bias, cap):
+        paths = found(resp, thetas, bias, cap)
+        pts = paths[0].points.copy()
+        n = len(pts)
+        pts[n // 5:4 * n // 5, 0] += 16.0 / f
+        return [paths[0], replace(paths[0], points=pts, score=0.9 * paths[0].score)] + paths[1:]
+
+    monkeypatch.setattr(seam_robust, "find_paths", twice)
+    on_gap = [c for c in robust_candidates(grey, linear_lut(2.2), DetectParams())
+              if c.points is not None and np.median(np.abs(c.points[:, 0] - (
+                  600.0 + 0.05 * (c.points[:, 1] - 450.0)))) < 3.0]
+    assert len(on_gap) == 1 and not on_gap[0].why_rejected
+
+
+def test_a_line_stopped_by_a_patch_and_fading_out_at_its_other_end_is_a_faded_line() -> None:
+    # Wide easy tuning 10260 view 1: a pen line beside the joint, cut by a marker dot at one
+    # end ("covered") and fading out at the other, was not passed on as a faded line, and a
+    # valley path along it to the image border was returned as the seam.
+    line = np.column_stack([np.full(50, 500.0), np.linspace(150.0, 750.0, 50)])
+    cands = [Candidate(polyline=line, coarse_score=1.0, length_px=600.0, points=line,
+                       end_kinds=kinds, why_rejected=why)
+             for kinds, why in ((("covered", "open"), "gap of 600 px stops at a covered patch"),
+                                (("open", "open"), "dark line of 600 px fades out inside the "
+                                                   "sheet at both ends"),
+                                (("covered", "sheet border"), "gap of 600 px stops at a "
+                                                              "covered patch"),
+                                (("image border", "sheet border"), ""))]
+    faded = faded_lines(cands)
+    assert len(faded) == 2 and faded[0] is line and faded[1] is line
 
 
 def test_a_sheet_border_the_gap_was_not_seen_to_run_to_is_no_joint_end():

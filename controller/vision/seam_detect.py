@@ -183,8 +183,7 @@ def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
             return _detection(best, ratio, conf, reasons, both, x0, y0)
         # The gap is not the clean two-edge valley the profiles fit (ragged, wide, covered by
         # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
-        pens = [c.points for c in cands if c.points is not None and "fades out" in c.why_rejected]
-        cands = robust_candidates(sub, lut, p, not_lines=pens)
+        cands = robust_candidates(sub, lut, p, not_lines=faded_lines(cands))
         table(cands)
         if hint_arr is not None:
             cands = [c for c in cands if mean_dist(c.polyline, hint_arr) < 60.0]
@@ -194,6 +193,17 @@ def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
                        "fit the gap)")
     no_parallel_valley(sub, lut, best, hint_arr, p, x0, y0)
     return _detection(best, ratio, conf, reasons, cands, x0, y0)
+
+
+def faded_lines(cands: list[Candidate]) -> list[F64]:
+    """The centrelines (px) of ``cands`` seen to fade out inside a sheet at an end.
+
+    Also where the other end stopped at a patch with the line going on beyond it: that end
+    says nothing of what the line is, the open one does (a pen line, a scratch). A valley path
+    along one of them is not a seam (:func:`controller.vision.seam_robust.robust_candidates`).
+    """
+    return [c.points for c in cands if c.points is not None
+            and ("fades out" in c.why_rejected or "open" in c.end_kinds)]
 
 
 def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: TableCheck,

@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from controller.vision.seam_coarse import share_near
 from controller.vision.seam_ends import border_crossing, end_offset
 from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
 from controller.vision.seam_path_ends import END_COVER_PX, follow_ends, trim_at_sheet_borders
@@ -51,12 +52,20 @@ def robust_candidates(grey: NDArray[np.uint8], lut: F64, p: DetectParams, max_pa
     thetas = main_directions(resp, 2 * bias)
     paths = find_paths(resp, thetas, bias, cap=0.5)
     out: list[Candidate] = []
+    measured = 0
     for path in paths:
-        if len(out) >= max_paths:
+        if measured >= max_paths:
             break
         if any(_same_line(path.points * f, c.polyline) for c in out):
             continue
         c = _measure(grey, lut, path, f, scale, bias, p)
+        measured += 1
+        if c.points is not None and any(k.points is not None
+                                        and share_near(c.points, k.points, 3.0) >= 0.8
+                                        for k in out):
+            # Measured onto a line already judged (the raw paths ran apart in places): the same
+            # line twice is neither a rival to itself nor a second chance for a pen line.
+            continue
         if (not c.why_rejected and c.points is not None
                 and any(_same_line(q, c.points) for q in not_lines or [])):
             c.why_rejected = ("valley path along a dark line that fades out inside a sheet (a "
