@@ -192,3 +192,46 @@ def side_steps(grey: NDArray[np.uint8], lut: F64, ps: F64, ks: F64,
         frac = (v0 - half) / (v0 - v1) if v0 != v1 else 0.5
         out.append((float(ks[k] + frac * (ks[k + 1] - ks[k])), bool(lasting)))
     return out
+
+
+#: A gap that runs out of the image is seen as a valley up to this near the image border (px):
+#: closer, the lines beside it are cut by the border and nothing can be read.
+NEAR_IMAGE_BORDER_PX = 8.0
+
+
+def gap_reaches_image_border(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64,
+                             w_med: float, k_border: float) -> bool:
+    """Whether the gap is still seen from ``e_pt`` up to the image border ``k_border`` px ahead.
+
+    Where the profiles stop within a profile length of the image border the seam is taken to
+    run out of the image. That holds only where the gap goes on up to the border: a joint that
+    ends 10-40 px inside the image (its sheet border too close to the image border for the
+    lines beside the gap to show a step) is not a seam leaving the image. The gap's relative
+    depth (centre against the darker of two lines ``w_med / 2 + 2.5`` px either side, all px)
+    is read 6-30 px before ``e_pt`` and from ``e_pt`` on: it reaches the border when at least
+    half the samples ahead are a quarter as deep as those before (a gap fading toward the edge
+    still does; the sheets beside an end, or the table beyond it, do not). True where fewer than
+    :data:`NEAR_IMAGE_BORDER_PX` px are left to read, or nothing clear to compare with.
+    """
+    nrm = np.array([-tang[1], tang[0]])
+    delta = w_med / 2 + 2.5
+
+    def depth(ks: F64) -> tuple[F64, NDArray[np.bool_]]:
+        q = e_pt + np.outer(ks, tang)
+        c, ic = bilinear(grey, lut, q[:, 0], q[:, 1])
+        a, ia = bilinear(grey, lut, q[:, 0] + delta * nrm[0], q[:, 1] + delta * nrm[1])
+        b, ib = bilinear(grey, lut, q[:, 0] - delta * nrm[0], q[:, 1] - delta * nrm[1])
+        side = np.minimum(a, b)
+        return (side - c) / np.maximum(side, 1e-6), ic & ia & ib
+
+    ahead = np.arange(0.0, k_border - 1.0, 1.0)
+    if len(ahead) < NEAR_IMAGE_BORDER_PX:
+        return True
+    before, ok_b = depth(np.arange(-30.0, -6.0 + 1e-9, 1.0))
+    d, ok = depth(ahead)
+    if ok_b.sum() < 5 or ok.sum() < 5:
+        return True
+    ref = float(np.median(before[ok_b]))
+    if ref <= 0.05:
+        return True
+    return bool(np.mean(d[ok] > 0.25 * ref) >= 0.5)

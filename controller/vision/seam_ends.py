@@ -15,7 +15,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_border import Border, border_line, side_crossings, side_steps
+from controller.vision.seam_border import (
+    Border,
+    border_line,
+    gap_reaches_image_border,
+    side_crossings,
+    side_steps,
+)
 from controller.vision.seam_params import F64, DetectParams
 from controller.vision.seam_profiles import bilinear, fit_at
 from controller.vision.seam_resume import RESUME_RUN_PX, gap_resumes
@@ -231,7 +237,7 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
     kind = "unsure sheet border" if unsure else "sheet border"
     if k_line is not None:
         k = k_line
-    elif k_border < 40.0:
+    elif k_border < 40.0 and gap_reaches_image_border(grey, lut, e_pt, tang, w_med, k_border):
         # Profiles fail within a profile length of the image border: the seam runs out there.
         k, kind = k_border, "image border"
     else:
