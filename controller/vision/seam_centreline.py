@@ -19,6 +19,11 @@ from controller.vision.seam_profiles import fit_at, resample, track_on
 from controller.vision.seam_shadow import split_shadow
 
 _MAX_PATCHES = 10  # covered patches (tack welds) crossed per candidate
+#: A quadratic bridging a long hole that misses the samples it was fitted to by more than this
+#: (RMS, px) does not follow the seam there: on a ragged gap the samples wander by 1-2 px; a pen
+#: line crossing an S-bent seam (pen hard tuning 50054) left a hole whose 160 px quadratic on
+#: each side missed them by 3.5 px and bridged it 5 px off.
+BRIDGE_MISFIT_PX = 2.5
 
 
 def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
@@ -214,7 +219,9 @@ def _bridge_long_holes(t: F64, pts: F64, ok: NDArray[np.bool_], long: int,
 
     The quadratic (per coordinate, over the sample index ``t``) is fitted by least squares to
     the measured samples within ``reach`` on both sides of the hole: it follows a curved seam
-    and averages the noise of the samples next to the hole.
+    and averages the noise of the samples next to the hole. Where it misses them by more than
+    :data:`BRIDGE_MISFIT_PX` (RMS, px) the seam bends more than a quadratic follows over that
+    span (an S-bend): it is fitted again to as many samples either side as the hole is long.
     """
     out = pts.copy()
     for a, b in runs_of(~ok):
@@ -224,6 +231,12 @@ def _bridge_long_holes(t: F64, pts: F64, ok: NDArray[np.bool_], long: int,
         if near[:a].sum() < 3 or near[b:].sum() < 3:
             continue
         coef = np.polyfit(t[near] - t[a], pts[near], 2)
+        miss = pts[near] - np.column_stack([np.polyval(coef[:, k], t[near] - t[a])
+                                            for k in range(pts.shape[1])])
+        if np.sqrt(np.mean(np.sum(miss**2, axis=1))) > BRIDGE_MISFIT_PX:
+            r = max(long, b - a)
+            near = ok & (t >= t[a] - r) & (t < t[b - 1] + r + 1)
+            coef = np.polyfit(t[near] - t[a], pts[near], 2)
         tq = t[a:b] - t[a]
         out[a:b] = np.column_stack([np.polyval(coef[:, k], tq) for k in range(pts.shape[1])])
     return out
