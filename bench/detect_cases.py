@@ -12,6 +12,8 @@ Sets (each case is one scene; ``classic`` cases are one view, the others a pair 
   its length (so that the seam leaves the image at one or both ends in many cases).
 - ``pen``: ``variety="pen"`` scenes (1-3 lines parallel to the joint), seeds from 50000 up, the
   same views.
+- ``tee``: ``variety="tee"`` scenes (close-ups whose joint ends at a T-corner at one end), seeds
+  from 60000 up, medium and hard in turn, the same views. Not in the default run (``--sets``).
 
 Renders are cached as PNG (lossless; a JPEG look's artefacts are already in the image) with the
 truth in an .npz under bench/cache/detect/ (git-ignored), keyed by :data:`CACHE_TAG`, bumped when
@@ -39,7 +41,7 @@ CACHE = Path(os.environ.get("SEAMGUIDE_DETECT_CACHE",
                             Path(__file__).resolve().parent / "cache" / "detect"))
 CACHE_TAG = "v4"  # v4: a dark line at the ground strips' outer edges (shop look)
 #: First seed of each set (disjoint seed ranges, then split by sim_look.split_of).
-SEED_START = {"wide": 10000, "pen": 50000}
+SEED_START = {"wide": 10000, "pen": 50000, "tee": 60000}
 #: A case: (set, difficulty, split, seed).
 Case = tuple[str, str, str, int]
 VIEW2_ROLL_DEG = float(np.degrees(np.arctan2(1704.0, 2272.0)))  # as controller/cell/dry_run.py
@@ -48,20 +50,23 @@ VIEW2_ROLL_DEG = float(np.degrees(np.arctan2(1704.0, 2272.0)))  # as controller/
 def case_list(kind_set: str, difficulty: str, split: str, n: int) -> list[Case]:
     """``n`` cases (set, difficulty, split, seed) of one set, difficulty and part.
 
-    The pen set mixes the difficulties (easy, medium, hard in turn); ``difficulty`` is ignored.
+    The pen set mixes the difficulties (easy, medium, hard in turn), the tee set medium and hard;
+    ``difficulty`` is ignored for them.
     """
     if kind_set == "classic":
         return [("classic", difficulty, "tuning", s) for s in range(n)]
     seeds = seeds_in(split, n, start=SEED_START[kind_set])
     if kind_set == "pen":
         return [("pen", DIFFICULTIES[k % 3], split, s) for k, s in enumerate(seeds)]
+    if kind_set == "tee":
+        return [("tee", ("medium", "hard")[k % 2], split, s) for k, s in enumerate(seeds)]
     return [(kind_set, difficulty, split, s) for s in seeds]
 
 
 #: Cases per group: classic views per difficulty, wide pairs per difficulty and part, pen pairs
 #: per part.
-FULL = {"classic": 52, "wide/heldout": 100, "wide/tuning": 50, "pen": 25}
-QUICK = {"classic": 8, "wide/heldout": 10, "wide/tuning": 10, "pen": 6}
+FULL = {"classic": 52, "wide/heldout": 100, "wide/tuning": 50, "pen": 25, "tee": 25}
+QUICK = {"classic": 8, "wide/heldout": 10, "wide/tuning": 10, "pen": 6, "tee": 6}
 
 
 def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],
@@ -78,6 +83,8 @@ def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],
                                                         sizes[f"wide/{split}"])
         if "pen" in sets:
             groups[f"pen/mixed/{split}"] = case_list("pen", "", split, sizes["pen"])
+        if "tee" in sets:
+            groups[f"tee/mixed/{split}"] = case_list("tee", "", split, sizes["tee"])
     return groups
 
 
@@ -131,7 +138,7 @@ def make_case_scene(case: Case) -> Any:
     """The scene of a case."""
     kind_set, difficulty, _, seed = case
     kind = KINDS[seed % len(KINDS)]
-    variety = {"classic": "classic", "wide": "wide", "pen": "pen"}[kind_set]
+    variety = {"classic": "classic", "wide": "wide", "pen": "pen", "tee": "tee"}[kind_set]
     return make_scene(kind, seed, difficulty, variety=variety)
 
 

@@ -15,6 +15,11 @@ draws one for a variety and difficulty:
 - ``pen``: a wide look with 1-3 lines drawn parallel to the joint 3-20 mm beside it on one
   sheet, often darker and wider than the gap, sometimes crossing it.
 - ``tack_open``: the dry run's tack-welded seam (a classic look plus tack welds and spatter).
+- ``tee``: a close-up (any difficulty) whose joint ends at a T-corner at one end: a third plate
+  lies across the joint's end beyond a crossbar gap as wide as the joint's (0.7-1.5 x), its
+  edge square to the joint; the sheets' corners there are square and the three plates flat, the
+  third one sheet A's metal. (The held-back close-ups: one
+  end a T-corner, the other leaving the image.)
 
 **Tuning and held-out parts.** :func:`split_of` puts every seed in one of two parts by a hash
 (about half each). Besides the seeds, the parts draw from *disjoint* ranges: each split parameter
@@ -33,7 +38,7 @@ from typing import Any
 import numpy as np
 
 SPLITS = ("tuning", "heldout")
-VARIETIES = ("classic", "wide", "pen", "tack_open")
+VARIETIES = ("classic", "wide", "pen", "tack_open", "tee")
 #: Table kinds: holes (classic 40-60 mm grid), perforated (hole grid, pitch 8-25 mm), slotted,
 #: plain, dark, grid_lines (engraved lines).
 TABLES_TUNING = ("holes", "perforated", "slotted", "plain", "dark")
@@ -79,6 +84,9 @@ class Look:
     half-plane shadow or ``()``. ``ring_glare``: ring-light specular strength. ``spot``: a spot
     light's fall-off (0: none). ``cast_bgr``: colour gains (None: greyscale image).
     ``jpeg_quality``: 0 for none. ``standoff_mm``: the viewing distance the look is made for.
+    ``tee_mm``: width of the crossbar gap of a T-corner at the joint's end ``tee_end`` (+1: the
+    end at a = +chord/2, -1: at -chord/2), beyond which a plate ``tee_plate_mm`` long lies across
+    the joint (0: no T-corner).
     """
 
     variety: str = "wide"
@@ -116,6 +124,9 @@ class Look:
     pens: int = 0
     pen_cross: bool = False
     scanner_dots: int = 0
+    tee_mm: float = 0.0
+    tee_end: int = 1
+    tee_plate_mm: float = 0.0
 
 
 #: Per difficulty: (noise DN, blur px, min visibility of the gap as valley depth / noise, chance
@@ -162,6 +173,8 @@ def draw_look(rng: np.random.Generator, seed: int, difficulty: str, variety: str
                     ragged_mm=0.05), {"length_mm": float(rng.uniform(460.0, 520.0))}
     r = rng.random()
     family = "shop" if r < 0.25 else ("closeup" if r < 0.42 and difficulty != "easy" else "plain")
+    if variety == "tee":
+        family = "closeup"
     standoff = float(rng.uniform(300.0, 450.0)) if family != "closeup" else \
         float(rng.uniform(150.0, 220.0))
     base: dict[str, Any] = {
@@ -236,4 +249,11 @@ def draw_look(rng: np.random.Generator, seed: int, difficulty: str, variety: str
             float(rng.uniform(0.45, 0.7)), 1.0, float(rng.uniform(0.4, 0.65))),
             corner_mm=float(rng.uniform(0.5, 3.0)), table="dark")
         base["length_mm"] = float(rng.uniform(100.0, 200.0))
+    if variety == "tee":
+        # A stream of its own, as the edge line's.
+        trng = np.random.default_rng([seed, 0x7E])
+        look.update(tee_mm=base["gap_mm"] * float(trng.uniform(0.7, 1.5)),
+                    tee_end=int(trng.choice([-1, 1])),
+                    tee_plate_mm=float(trng.uniform(40.0, 120.0)), corner_mm=0.0,
+                    tilt_a_rad=0.0, tilt_b_rad=0.0)
     return Look(**look), base

@@ -81,6 +81,13 @@ def radiance(scene: Scene, cam: CameraModel, T_base_cam: F64) -> tuple[F32, floa
     d = b - scene.seam_b(a).astype(np.float32)
     if look is not None and look.corner_mm > 0:
         inside = np.minimum(inside, corner_cover(scene, a, d))
+    if look is not None and look.tee_mm > 0:
+        # A T-corner: a third plate across the joint's end, beyond the crossbar gap.
+        sa = np.float32(look.tee_end) * a - half
+        tee = np.minimum(np.minimum(sa - np.float32(look.tee_mm),
+                                    np.float32(look.tee_mm + look.tee_plate_mm) - sa),
+                         np.minimum(b - b_lo + np.float32(30.0), b_hi + np.float32(30.0) - b))
+        inside = np.maximum(inside, tee)
     part_cov = np.clip(inside / (1.5 * fp) + 0.5, 0.0, 1.0)
     part_cov = np.nan_to_num(part_cov, nan=0.0)
 
@@ -88,6 +95,9 @@ def radiance(scene: Scene, cam: CameraModel, T_base_cam: F64) -> tuple[F32, floa
     gap_cov = np.zeros_like(d)
     band = np.abs(d) < (max(3.0, 2 * scene.gap_mm) if look is None else gap_band_mm(scene))
     band &= np.abs(a) < half + 2.0
+    if look is not None and look.tee_mm > 0:
+        # Not on the third plate: the gap stops at the crossbar.
+        band &= np.float32(look.tee_end) * a < half + np.float32(0.5 * look.tee_mm)
     band &= np.isfinite(d)
     rr, cc = np.nonzero(band)
     gap_w_px = float("nan")
@@ -108,6 +118,8 @@ def radiance(scene: Scene, cam: CameraModel, T_base_cam: F64) -> tuple[F32, floa
 
     tex = textures(scene)
     sheet_a = d < 0
+    if look is not None and look.tee_mm > 0:
+        sheet_a |= np.float32(look.tee_end) * a > half  # the third plate: one metal, no seam
     brush_a = sample_brush(tex.brush_a, a, b, scene.brush_angle_a_rad)
     brush_b = sample_brush(tex.brush_b, a, b, scene.brush_angle_b_rad)
     c = np.float32(scene.brush_contrast)

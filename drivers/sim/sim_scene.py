@@ -351,8 +351,13 @@ def make_scene(kind: str, seed: int, difficulty: str = "medium", variety: str = 
             decals = classic_clutter(scene, cfg, g_clutter)
         else:
             decals, spans = wide_clutter(scene, np.random.default_rng(
-                np.random.SeedSequence([int(seed), KINDS.index(kind), 77, len(VARIETIES)])))
+                np.random.SeedSequence([int(seed), KINDS.index(kind), 77, _CLUTTER_STREAM])))
     return replace(scene, seam_points_mm=pts, decals=decals, occluded_spans_mm=spans)
+
+
+#: The wide clutter's stream (it was ``len(VARIETIES)`` when there were four varieties): kept, so
+#: that adding a variety changes no scene already drawn.
+_CLUTTER_STREAM = 4
 
 
 def _corner_trim(chord: float, gap: float, r: float) -> tuple[float | None, float]:
