@@ -56,8 +56,10 @@ def test_the_joint_ends_at_a_crossbar_with_the_third_plate_beyond(
         q = np.round(end + np.outer(ks, u)).astype(int)
         return img[q[:, 1], q[:, 0]]
 
-    sheets = np.median(img[np.round(T[len(T) // 2, 1]).astype(int) + np.arange(-60, -40),
-                           np.round(T[len(T) // 2, 0]).astype(int)])
+    mid, tang = T[len(T) // 2], T[len(T) // 2 + 4] - T[len(T) // 2 - 4]
+    nrm = np.array([-tang[1], tang[0]]) / np.linalg.norm(tang)
+    q = np.round(mid + np.outer(np.arange(40.0, 60.0), nrm)).astype(int)
+    sheets = np.median(img[q[:, 1], q[:, 0]])  # one sheet, 40-60 px beside the seam's middle
     runs = [beyond(T[0], T[8]), beyond(T[-1], T[-9])]
     # At the T-corner: the crossbar (dark), then the third plate (as bright as the sheets); at
     # the other end the dark table goes on.

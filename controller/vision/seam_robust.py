@@ -59,7 +59,7 @@ def robust_candidates(grey: NDArray[np.uint8], lut: F64, p: DetectParams, max_pa
         if any(_same_line(path.points * f, c.polyline) for c in out):
             continue
         c = _measure(grey, lut, path, f, scale, bias, p)
-        measured += 1
+        measured += 1  # a path dropped below still counts: no further (rival) path for it
         if c.points is not None and any(k.points is not None
                                         and share_near(c.points, k.points, 3.0) >= 0.8
                                         for k in out):

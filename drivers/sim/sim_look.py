@@ -18,8 +18,8 @@ draws one for a variety and difficulty:
 - ``tee``: a close-up (any difficulty) whose joint ends at a T-corner at one end: a third plate
   lies across the joint's end beyond a crossbar gap as wide as the joint's (0.7-1.5 x), its
   edge square to the joint; the sheets' corners there are square and the three plates flat, the
-  third one sheet A's metal. (The held-back close-ups: one
-  end a T-corner, the other leaving the image.)
+  third one sheet A's metal (the held-back close-ups: one end a T-corner, the other leaving the
+  image).
 
 **Tuning and held-out parts.** :func:`split_of` puts every seed in one of two parts by a hash
 (about half each). Besides the seeds, the parts draw from *disjoint* ranges: each split parameter
