@@ -13,6 +13,7 @@ import pytest
 from drawn_plates import S, render
 
 from controller.errors import SeamNotFound
+from controller.vision import seam_ends
 from controller.vision.seam_border import border_line
 from controller.vision.seam_detect import detect_seam
 
@@ -135,3 +136,19 @@ def test_a_joint_ending_at_a_t_corner_ends_at_the_near_edge_of_the_crossing_gap(
     E = det.endpoints_px[np.argsort(det.endpoints_px[:, 0])]
     assert det.end_kinds == ("joint_end", "joint_end")
     assert np.abs(E - [[299.5, 599.5], [999.5, 599.5]]).max() <= 3.0, E
+
+
+def test_an_oblique_crossbars_near_edge_settles_an_end_read_as_unsure() -> None:
+    # Steps read at the joint's end of a simulated T-corner close-up (tee hard tuning 60009 view
+    # 1): the crossbar is oblique in the image and blurred, its crossings of the four lines beside
+    # the gap spread over 25 px; the lasting steps alone fit two lines equally well ("unsure
+    # sheet border": the seam refused), though the first one is the end within 1 px. Every step
+    # (the band's near edge on all four lines) settles it.
+    offs = (-19.6, -9.8, 0.0, 9.8, 19.6)
+    lasting = [[11.6], [5.9], [16.7], [13.5], [6.3]]
+    every = [[11.6], [5.9], [16.7], [-7.2, 13.5], [-13.2, 6.3]]
+    line = border_line(offs, lasting, 14.6)
+    assert line.unsure and line.k is not None
+    got = seam_ends._band_before(every, offs, 14.6, line)
+    assert not got.unsure and got.k is not None and abs(got.k - line.k) <= 3.0
+    assert all(got.sides)

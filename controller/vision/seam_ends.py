@@ -287,14 +287,22 @@ def _band_before(steps: list[list[float]], offs: tuple[float, ...], w_med: float
     sheet does that too): the border was read at the band's far side, a band's width past the
     joint's end. A band's near edge is taken when it is straight across all four lines beside
     the gap (a dot is not; the centreline need not step: the band may be as dark as the gap)
-    and nearer than ``line`` (or ``line`` is none).
+    and nearer than ``line`` (or ``line`` is none). Where it lies where ``line`` does (within 3
+    px) and ``line`` was unsure (another line through the lasting steps as well supported: the
+    band's far edge, an oblique crossbar's crossings spread over the lines), the near edge seen
+    on all four lines settles it.
     """
     near = border_line(offs, steps, w_med)
-    if near.k is None or (line.k is not None and near.k > line.k - 3.0):
+    if near.k is None:
         return line
     on = sum(1 for o, s in zip(offs, steps, strict=True)
              if o != 0.0 and s and abs(s[0] - (near.k + near.slope * o)) <= 1.5)
-    return near if on == len(offs) - 1 else line
+    if on != len(offs) - 1:
+        return line
+    if line.k is not None and near.k > line.k - 3.0:
+        same = line.unsure and not near.unsure and abs(near.k - line.k) <= 3.0
+        return near if same else line
+    return near
 
 
 def _other_side_ends(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, line: Border,
