@@ -122,7 +122,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         if use_extrap:
             tt = np.arange(L - m - n_fit, L - m, dtype=np.float64)
             coef = np.polyfit(tt - (L - 1), seq[L - m - n_fit:L - m], 2)
-            e_pt = np.array([np.polyval(coef[:, k], 0.0) for k in range(2)])
+            e_pt = np.asarray(np.polyval(coef, 0.0), np.float64)
             d_pt = np.array([np.polyval(np.polyder(coef[:, k]), 0.0) for k in range(2)])
             tang = d_pt / (np.linalg.norm(d_pt) + 1e-12)
         else:
@@ -139,7 +139,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
             t_end = k_end / max(float(np.linalg.norm(d_pt)), 1e-9)
             tq = np.arange(-m + 1.0, t_end, 1.0)
             tq = np.append(tq, t_end)
-            ext = np.column_stack([np.polyval(coef[:, k], tq) for k in range(2)])
+            ext = np.polyval(coef, tq[:, None])
             ders.append(np.column_stack([np.polyval(np.polyder(coef[:, k]), tq)
                                          for k in range(2)]))
             keep_n = L - m
@@ -231,14 +231,13 @@ def _bridge_long_holes(t: F64, pts: F64, ok: NDArray[np.bool_], long: int,
         if near[:a].sum() < 3 or near[b:].sum() < 3:
             continue
         coef = np.polyfit(t[near] - t[a], pts[near], 2)
-        miss = pts[near] - np.column_stack([np.polyval(coef[:, k], t[near] - t[a])
-                                            for k in range(pts.shape[1])])
+        miss = pts[near] - np.polyval(coef, (t[near] - t[a])[:, None])
         if np.sqrt(np.mean(np.sum(miss**2, axis=1))) > BRIDGE_MISFIT_PX:
             r = max(long, b - a)
             near = ok & (t >= t[a] - r) & (t < t[b - 1] + r + 1)
             coef = np.polyfit(t[near] - t[a], pts[near], 2)
         tq = t[a:b] - t[a]
-        out[a:b] = np.column_stack([np.polyval(coef[:, k], tq) for k in range(pts.shape[1])])
+        out[a:b] = np.polyval(coef, tq[:, None])
     return out
 
 

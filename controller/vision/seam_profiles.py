@@ -206,7 +206,7 @@ def track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectPa
         cen = fit["centre"][idx]
         coef = np.polyfit(t, cen, 2)
         tq = np.arange(1.0, chunk + 1.0)
-        pts = np.column_stack([np.polyval(coef[:, k], tq) for k in range(2)])
+        pts = np.polyval(coef, tq[:, None])
         der = np.column_stack([np.polyval(np.polyder(coef[:, k]), tq) for k in range(2)])
         der /= np.linalg.norm(der, axis=1, keepdims=True) + 1e-12
         nrm = np.column_stack([-der[:, 1], der[:, 0]])
