@@ -42,6 +42,8 @@ CACHE = Path(os.environ.get("SEAMGUIDE_DETECT_CACHE",
 CACHE_TAG = "v4"  # v4: a dark line at the ground strips' outer edges (shop look)
 #: First seed of each set (disjoint seed ranges, then split by sim_look.split_of).
 SEED_START = {"wide": 10000, "pen": 50000, "tee": 60000}
+#: The sets that mix difficulties, and the difficulties each takes in turn.
+MIXED = {"pen": DIFFICULTIES, "tee": ("medium", "hard")}
 #: A case: (set, difficulty, split, seed).
 Case = tuple[str, str, str, int]
 VIEW2_ROLL_DEG = float(np.degrees(np.arctan2(1704.0, 2272.0)))  # as controller/cell/dry_run.py
@@ -56,10 +58,9 @@ def case_list(kind_set: str, difficulty: str, split: str, n: int) -> list[Case]:
     if kind_set == "classic":
         return [("classic", difficulty, "tuning", s) for s in range(n)]
     seeds = seeds_in(split, n, start=SEED_START[kind_set])
-    if kind_set == "pen":
-        return [("pen", DIFFICULTIES[k % 3], split, s) for k, s in enumerate(seeds)]
-    if kind_set == "tee":
-        return [("tee", ("medium", "hard")[k % 2], split, s) for k, s in enumerate(seeds)]
+    if kind_set in MIXED:
+        mix = MIXED[kind_set]
+        return [(kind_set, mix[k % len(mix)], split, s) for k, s in enumerate(seeds)]
     return [(kind_set, difficulty, split, s) for s in seeds]
 
 
@@ -81,10 +82,9 @@ def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],
             for d in difficulties:
                 groups[f"wide/{d}/{split}"] = case_list("wide", d, split,
                                                         sizes[f"wide/{split}"])
-        if "pen" in sets:
-            groups[f"pen/mixed/{split}"] = case_list("pen", "", split, sizes["pen"])
-        if "tee" in sets:
-            groups[f"tee/mixed/{split}"] = case_list("tee", "", split, sizes["tee"])
+        for mixed in MIXED:
+            if mixed in sets:
+                groups[f"{mixed}/mixed/{split}"] = case_list(mixed, "", split, sizes[mixed])
     return groups
 
 
@@ -138,8 +138,7 @@ def make_case_scene(case: Case) -> Any:
     """The scene of a case."""
     kind_set, difficulty, _, seed = case
     kind = KINDS[seed % len(KINDS)]
-    variety = {"classic": "classic", "wide": "wide", "pen": "pen", "tee": "tee"}[kind_set]
-    return make_scene(kind, seed, difficulty, variety=variety)
+    return make_scene(kind, seed, difficulty, variety=kind_set)  # each set is a variety
 
 
 def _stem(case: Case) -> Path:
