@@ -8,16 +8,22 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.errors import AmbiguousSeam, SeamNotFound
-from controller.vision.seam_coarse import nearest_px
-from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
+from controller.vision.seam_coarse import nearest_px, share_near
+from controller.vision.seam_params import F64, Candidate, DetectParams, Tee, runs_of
 
 JOINT_END = "joint_end"
 IMAGE_BORDER = "image_border"
 
 
 def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
-           offset: tuple[int, int]) -> tuple[Candidate, float, float, list[str]]:
+           offset: tuple[int, int], tees: list[Tee] | None = None
+           ) -> tuple[Candidate, float, float, list[str]]:
     """The best of ``cands`` (refined), the next one's score ratio, its confidence and reasons.
+
+    ``tees``: the T-corners among ``cands`` (:func:`controller.vision.seam_tee.find_tees`):
+    neither a crossbar nor a line along the T is its stem's rival, a stem at least
+    ``p.ambiguity_ratio`` as strong as its crossbar is chosen over it, and a weaker one makes
+    the crossbar ambiguous.
 
     Raises :class:`SeamNotFound` (none passes, the best is too weak or fades out inside a sheet)
     or :class:`AmbiguousSeam` (two of similar strength, or a second line running beside the best
@@ -42,7 +48,23 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
             **details, looked_at_px=[summary_px(c, x0, y0) for c in shown],
             looked_at_why=[c.why_rejected for c in shown])
     best = good[0]
-    rivals = sorted(good[1:] + [c for c in cands if c.why_rejected and c.rival],
+    stems = [t.stem for t in tees or [] if t.bar is best and not t.stem.why_rejected]
+    if stems:
+        stem = max(stems, key=lambda c: c.score)
+        if stem.score < p.ambiguity_ratio * best.score:
+            # The best runs across the end of a line that passes too: a T-corner, whose stem is
+            # the seam such a view is of (seam_tee), but too weak to be taken for sure.
+            raise AmbiguousSeam(
+                f"a line ends on the best seam candidate, as at a T-corner (score "
+                f"{best.score:.0f} vs {stem.score:.0f}): the seam may be the line that ends there; "
+                "refusing to choose: give a --roi or a nominal seam hint",
+                best_px=summary_px(best, x0, y0), second_px=summary_px(stem, x0, y0),
+                **details)
+        best = stem
+    tee = next((t for t in tees or [] if t.stem is best), None)
+    not_rivals = [best] + ([] if tee is None else [tee.bar, *tee.along])
+    rivals = sorted([c for c in good + [c for c in cands if c.why_rejected and c.rival]
+                     if not any(c is k for k in not_rivals) and not _seen_on(c, best)],
                     key=lambda c: -c.score)
     second = rivals[0] if rivals else None
     ratio = (second.score / best.score) if second is not None else 0.0
@@ -65,6 +87,10 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
             "nominal seam hint", best_px=summary_px(best, x0, y0),
             second_px=summary_px(other, x0, y0), **details)
     conf, reasons = rate_confidence(best, ratio, p)
+    if tee is not None:
+        reasons.append(f"ends at a T-corner: a line crossing its end runs on past it both ways "
+                       f"(score {tee.bar.score:.0f}), the seam taken is the one ending there "
+                       "(for the crossing line, give its nominal seam region)")
     if "open" in best.end_kinds or "covered" in best.end_kinds:
         # A point inside a sheet is never returned as an end, at any confidence threshold.
         raise SeamNotFound("best seam candidate fades out inside a sheet at one end (a joint "
@@ -196,6 +222,29 @@ LOOKED_AT_SHOWN = 3
 #: A refused candidate is reported as its centreline with a point about every this many px:
 #: enough to draw it over the image (a curve's bends kept) and short in a cycle record.
 SUMMARY_STEP_PX = 40.0
+
+
+#: A line whose gap was seen only along the best candidate (this share of its seen points within
+#: SEEN_ON_PX of it), where the best was seen all along (but BEST_SEEN_SLACK of its points) on
+#: the stretches the two differ, is the best line read again and bridged where the best is seen
+#: going elsewhere: no rival. Where the best was bridged there too, neither saw the way: a rival.
+SEEN_ON_SHARE = 0.9
+SEEN_ON_PX = 3.0
+BEST_SEEN_SLACK = 0.05
+
+
+def _seen_on(c: Candidate, best: Candidate) -> bool:
+    """Whether ``c`` is ``best`` read again, with nothing seen of its own (module constants)."""
+    if c.points is None or best.points is None or c.bridged is None or best.bridged is None:
+        return False
+    if len(c.bridged) != len(c.points) or len(best.bridged) != len(best.points):
+        return False
+    seen = c.points[~c.bridged]
+    if len(seen) < 8 or share_near(seen, best.points, SEEN_ON_PX) < SEEN_ON_SHARE:
+        return False
+    d, slack = nearest_px(best.points, c.points)  # every 4th point of best
+    apart = d > SEEN_ON_PX + slack
+    return not apart.any() or float(np.mean(best.bridged[::4][apart])) <= BEST_SEEN_SLACK
 
 
 def summary_px(c: Candidate, x0: int, y0: int) -> list[list[float]]:

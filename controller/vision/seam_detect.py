@@ -91,6 +91,7 @@ from controller.vision.seam_pattern import (
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_robust import robust_candidates
 from controller.vision.seam_smaller import moved, smaller_look
+from controller.vision.seam_tee import cut_stems, find_tees
 
 #: Marks the lines of a table among candidates (seam_pattern.mark_table_lines, bound to an image).
 TableCheck = Callable[[list[Candidate]], None]
@@ -162,11 +163,14 @@ def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
     checked: set[int] = set()  # candidates whose image-border ends were looked at already
 
     def decide(cands: list[Candidate]) -> tuple[Candidate, float, float, list[str]]:
-        correct_edge_ends(sub, lut, [c for c in cands if id(c) not in checked])
+        fresh = [c for c in cands if id(c) not in checked]
+        correct_edge_ends(sub, lut, fresh)
+        tees = find_tees(cands)
+        cut_stems([t for t in tees if id(t.stem) not in checked])
         checked.update(id(c) for c in cands)
         if trace is not None:
             trace.append(list(cands))
-        return choose(cands, p, details, (x0, y0))
+        return choose(cands, p, details, (x0, y0), tees)
 
     try:
         best, ratio, conf, reasons = decide(cands)

@@ -119,3 +119,18 @@ class Candidate:
     rival: bool = False  # rejected, but its line may be the joint: still makes others ambiguous
     way: str = "profiles"  # or "valley path" (controller.vision.seam_robust)
     why_rejected: str = ""
+
+
+@dataclass
+class Tee:
+    """A T-corner among the candidates (:mod:`controller.vision.seam_tee`).
+
+    ``stem`` ends (its end ``end``, 0 or 1) on ``bar``, which runs on past it both ways;
+    ``along``: the other candidates lying along the T (a path that turned at it), no lines of
+    their own.
+    """
+
+    stem: Candidate
+    end: int
+    bar: Candidate
+    along: list[Candidate] = field(default_factory=list)

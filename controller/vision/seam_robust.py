@@ -179,6 +179,25 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     # edge line of a ground strip, a scribed line), the wider one is the gap.
     c.score = c.length_px * min(c.depth, 0.5) * float(sup.mean()) * float(np.sqrt(w_med))
     if bent is not None:
+        c.stats["bent_deg"] = bent
+    judge_path(c)
+    return c
+
+
+def judge_path(c: Candidate) -> None:
+    """Set ``c.why_rejected`` and ``c.rival`` of a measured valley path from what it is.
+
+    From its end kinds, depth, the share of it where the gap was measured (``c.bridged``) and
+    where the working image shows a valley, and a turn across an unseen stretch
+    (``c.stats``): run again where its end kinds are settled later
+    (:mod:`controller.vision.seam_tee`).
+    """
+    assert c.bridged is not None
+    c.why_rejected, c.rival = "", False
+    seen = float(np.mean(~c.bridged))
+    support = c.stats.get("support", 0.0)
+    bent = c.stats.get("bent_deg")
+    if bent is not None:
         c.why_rejected = (f"valley path turns {bent:.0f} deg across an unseen stretch: it joins "
                           "two different lines (a covered joint does not turn under the patch)")
         # One of the two lines may be the joint: a strong rival all the same.
@@ -196,14 +215,13 @@ def _measure(grey: NDArray[np.uint8], lut: F64, path: ValleyPath, f: int,
     elif c.depth < MIN_DEPTH:
         c.why_rejected = (f"valley path of {c.length_px:.0f} px: too shallow to be a gap "
                           f"(relative depth {c.depth:.2f} < {MIN_DEPTH})")
-    elif seen.mean() < MIN_SEEN:
+    elif seen < MIN_SEEN:
         c.why_rejected = (f"valley path of {c.length_px:.0f} px: a gap profile is measured on "
-                          f"only {100 * seen.mean():.0f} % of it")
+                          f"only {100 * seen:.0f} % of it")
         c.rival = True  # the gap may be ragged or covered: it still makes another line doubtful
-    elif sup.mean() < MIN_SUPPORT:
+    elif support < MIN_SUPPORT:
         c.why_rejected = (f"valley path of {c.length_px:.0f} px: the gap is seen on only "
-                          f"{100 * sup.mean():.0f} % of it")
-    return c
+                          f"{100 * support:.0f} % of it")
 
 
 def _seen_to_border(kind: str, seen: NDArray[np.bool_], step_px: float) -> str:
