@@ -1,6 +1,6 @@
 """A seam ending at a T-corner: the stem chosen over the crossbar it ends on, its end at the
-crossbar's near edge; a line read again along the best is no rival (drawn images and candidates
-with exact truth, and a simulated T-corner close-up)."""
+crossbar's near edge (drawn images and candidates with exact truth, and a simulated T-corner
+close-up)."""
 
 import cv2
 import numpy as np
@@ -12,7 +12,12 @@ from controller.errors import AmbiguousSeam
 from controller.vision.seam_decision import choose
 from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_params import Candidate, DetectParams
+from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_tee import cut_stems, find_tees
+
+LUT = linear_lut(DetectParams().gamma)
+#: Plates everywhere (sheets and the third plate as bright), for the geometry alone.
+PLATES = np.full((900, 1200), 170, np.uint8)
 
 BAR_X, BAR_W = 900.0, 10.0
 
@@ -69,7 +74,7 @@ def test_a_stem_run_on_across_the_crossbar_is_cut_at_its_near_edge() -> None:
                  why="dark line of 930 px fades out inside a sheet (a pen or soapstone line)")
     stem.stats = {"support": 1.0}
     bar = _bar()
-    tees = find_tees([bar, stem])
+    tees = find_tees(PLATES, LUT, [bar, stem])
     assert len(tees) == 1 and tees[0].stem is stem and tees[0].end == 1
     cut_stems(tees)
     assert stem.points[-1] == pytest.approx([895.0, 450.0], abs=0.5)
@@ -91,11 +96,35 @@ def test_what_is_not_a_t(case: str) -> None:
         stem = _line((0, 450), (895, 450), bridged=lambda p: p[:, 0] > 745)
     else:  # crossed the bar and ran on to a sheet border of its own 40 px past it
         stem = _line((0, 450), (945, 450), kinds=("image border", "sheet border"))
-    assert find_tees([bar, stem]) == []
+    assert find_tees(PLATES, LUT, [bar, stem]) == []
+
+
+def test_a_line_along_the_sheets_outer_edge_with_the_table_beyond_is_no_crossbar() -> None:
+    # The sheets end at x = 905 with a dark table beyond; a dark line runs along their edge.
+    img = PLATES.copy()
+    img[:, 905:] = 40
+    stem = _line((0, 450), (895, 450), kinds=("image border", "unsure sheet border"))
+    assert find_tees(img, LUT, [_bar(), stem]) == []
+    assert len(find_tees(PLATES, LUT, [_bar(), stem])) == 1
+
+
+@pytest.mark.parametrize("why", ["fades out at both ends", "joins two lines"])
+def test_a_piece_of_a_line_or_a_joined_path_is_no_crossbar(why: str) -> None:
+    # A scratch ending on the joint: the joint's piece it meets fades out at both ends, or the
+    # path it meets joined two lines across an unseen stretch; neither is a crossbar.
+    stem = _line((0, 450), (895, 450), kinds=("image border", "open"),
+                 why="dark line of 895 px fades out inside a sheet")
+    stem.stats = {"support": 1.0}
+    bar = _line((900, 200), (900, 700), width=10.0)
+    if why == "fades out at both ends":
+        bar.end_kinds, bar.why_rejected = ("open", "open"), "dark line of 500 px fades out"
+    else:
+        bar.why_rejected = "valley path turns 40 deg across an unseen stretch: it joins two lines"
+    assert find_tees(PLATES, LUT, [bar, stem]) == []
 
 
 def _choose(cands):
-    return choose(cands, DetectParams(), {}, (0, 0), find_tees(cands))
+    return choose(cands, DetectParams(), {}, (0, 0), find_tees(PLATES, LUT, cands))
 
 
 def test_the_stem_is_chosen_over_a_stronger_crossbar_and_a_weak_one_is_a_doubt() -> None:
@@ -105,24 +134,6 @@ def test_the_stem_is_chosen_over_a_stronger_crossbar_and_a_weak_one_is_a_doubt()
     weak = _line((0, 450), (895, 450), kinds=("image border", "sheet border"), score=600.0)
     with pytest.raises(AmbiguousSeam, match="T-corner"):
         _choose([_bar(), weak])
-
-
-def test_a_line_read_again_along_the_best_is_no_rival_only_where_the_best_was_seen() -> None:
-    # The rival follows the best for 600 px (seen), then runs straight on where nothing was seen
-    # (bridged) while the best, seen all along, bends away.
-    best = _line((0, 450), (600, 450), kinds=("image border", "sheet border"), score=2000.0)
-    bend = _line((600, 450), (800, 250), kinds=("sheet border", "sheet border"))
-    best.points = np.vstack([best.points, bend.points[1:]])
-    best.width = np.full(len(best.points), 8.0)
-    best.bridged = np.zeros(len(best.points), bool)
-    rival = _line((0, 450), (1000, 450), kinds=("image border", "image border"), score=1800.0,
-                  bridged=lambda p: p[:, 0] > 600)
-    chosen, ratio, _, _ = _choose([best, rival])
-    assert chosen is best and ratio == 0.0
-    # Where the best was bridged too, neither saw the way: the rival stands.
-    best.bridged = best.points[:, 0] > 600
-    with pytest.raises(AmbiguousSeam):
-        _choose([best, rival])
 
 
 def test_a_simulated_t_corner_close_up_is_found(tmp_path_factory: pytest.TempPathFactory) -> None:

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.errors import AmbiguousSeam, SeamNotFound
-from controller.vision.seam_coarse import nearest_px, share_near
+from controller.vision.seam_coarse import nearest_px
 from controller.vision.seam_params import F64, Candidate, DetectParams, Tee, runs_of
 
 JOINT_END = "joint_end"
@@ -64,7 +64,7 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
     tee = next((t for t in tees or [] if t.stem is best), None)
     not_rivals = [best] + ([] if tee is None else [tee.bar, *tee.along])
     rivals = sorted([c for c in good + [c for c in cands if c.why_rejected and c.rival]
-                     if not any(c is k for k in not_rivals) and not _seen_on(c, best)],
+                     if not any(c is k for k in not_rivals)],
                     key=lambda c: -c.score)
     second = rivals[0] if rivals else None
     ratio = (second.score / best.score) if second is not None else 0.0
@@ -222,29 +222,6 @@ LOOKED_AT_SHOWN = 3
 #: A refused candidate is reported as its centreline with a point about every this many px:
 #: enough to draw it over the image (a curve's bends kept) and short in a cycle record.
 SUMMARY_STEP_PX = 40.0
-
-
-#: A line whose gap was seen only along the best candidate (this share of its seen points within
-#: SEEN_ON_PX of it), where the best was seen all along (but BEST_SEEN_SLACK of its points) on
-#: the stretches the two differ, is the best line read again and bridged where the best is seen
-#: going elsewhere: no rival. Where the best was bridged there too, neither saw the way: a rival.
-SEEN_ON_SHARE = 0.9
-SEEN_ON_PX = 3.0
-BEST_SEEN_SLACK = 0.05
-
-
-def _seen_on(c: Candidate, best: Candidate) -> bool:
-    """Whether ``c`` is ``best`` read again, with nothing seen of its own (module constants)."""
-    if c.points is None or best.points is None or c.bridged is None or best.bridged is None:
-        return False
-    if len(c.bridged) != len(c.points) or len(best.bridged) != len(best.points):
-        return False
-    seen = c.points[~c.bridged]
-    if len(seen) < 8 or share_near(seen, best.points, SEEN_ON_PX) < SEEN_ON_SHARE:
-        return False
-    d, slack = nearest_px(best.points, c.points)  # every 4th point of best
-    apart = d > SEEN_ON_PX + slack
-    return not apart.any() or float(np.mean(best.bridged[::4][apart])) <= BEST_SEEN_SLACK
 
 
 def summary_px(c: Candidate, x0: int, y0: int) -> list[list[float]]:

@@ -165,7 +165,7 @@ def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
     def decide(cands: list[Candidate]) -> tuple[Candidate, float, float, list[str]]:
         fresh = [c for c in cands if id(c) not in checked]
         correct_edge_ends(sub, lut, fresh)
-        tees = find_tees(cands)
+        tees = find_tees(sub, lut, cands)
         cut_stems([t for t in tees if id(t.stem) not in checked])
         checked.update(id(c) for c in cands)
         if trace is not None:

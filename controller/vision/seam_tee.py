@@ -17,10 +17,14 @@ A candidate ends on another (:func:`find_tees`) where, at one of its ends,
 - where its end lies past the band, it was not read as a sheet border or the image border
   there (a line that crossed the other and ended at a border of its own is no stem);
 - the other runs on past the meeting point both ways by :data:`RUN_ON_PX` or three of its
-  widths (a T, not a corner where both lines end);
+  widths (a T, not a corner where both lines end), and is a line of its own (:func:`_a_line`:
+  not a path joining two lines across an unseen stretch, nor fading out at both ends);
 - the two meet at :data:`MIN_ANGLE_DEG` or more (a T, not one line read twice);
 - its gap is seen (not bridged) on at least half of its last :data:`APPROACH_PX` before it
-  meets the band (a path bridged across the sheet up to a line ends nowhere).
+  meets the band (a path bridged across the sheet up to a line ends nowhere);
+- beyond the other's far edge, along the stem's course, lies a plate: not as dark against the
+  sheets as a table is (:func:`_plate_beyond`). Where the sheets end at their outer edge with the
+  table beyond, a line along that edge is no crossbar, and the end reading stands.
 
 A stem is a candidate passing so far, or one refused only for how that end was read: fading out
 inside a sheet (its path ran on into the third plate) or stopping at a covered patch with a gap
@@ -39,11 +43,14 @@ weaker than its crossbar (under ``ambiguity_ratio``), the view is refused as amb
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from controller.vision.seam_decision import arc_length
+from controller.vision.seam_ends import darker_than_sheets
 from controller.vision.seam_params import F64, Candidate, Tee
-from controller.vision.seam_profiles import resample
+from controller.vision.seam_profiles import bilinear, resample
 from controller.vision.seam_robust import judge_path
+from controller.vision.seam_wedge import sheet_levels
 
 #: The stem's last point may lie this far (px) outside the crossbar's band.
 MARGIN_PX = 4.0
@@ -61,16 +68,19 @@ APPROACH_PX = 100.0
 CLEAR_WIDTHS = 1.5
 CLEAR_PX = 20.0
 FIT_PX = 80.0
+#: Beyond the crossbar's far edge, a plate is looked for over this many px.
+BEYOND_PX = 30.0
 #: The tangents are chords over this many px of each line.
 _CHORD_PX = 30.0
 
 
-def find_tees(cands: list[Candidate]) -> list[Tee]:
+def find_tees(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate]) -> list[Tee]:
     """The T-corners of ``cands``: each candidate that ends on another, with the lines along both.
 
-    ``cands``: px of the image searched. Stems as in the module doc; a crossbar may be any
-    candidate with a refined centreline (a rejected one may be a rival). A stem ends on at most
-    one crossbar (the first found, in the order of ``cands``).
+    ``grey``: the image searched (``lut`` its linearisation), ``cands`` in its px. Stems as in
+    the module doc; a crossbar may be any line of its own (:func:`_a_line`; a rejected one may
+    be a rival). A stem ends on at most one crossbar (the first found, in the order of
+    ``cands``).
     """
     out = []
     for stem in cands:
@@ -79,10 +89,10 @@ def find_tees(cands: list[Candidate]) -> list[Tee]:
         if stem.why_rejected and not _refused_for_an_end(stem):
             continue
         for bar in cands:
-            if bar is stem or bar.points is None or len(bar.points) < 3:
+            if bar is stem or not _a_line(bar):
                 continue
             end = _end_on(stem, bar)
-            if end is None:
+            if end is None or not _plate_beyond(grey, lut, stem, end, bar):
                 continue
             if stem.end_kinds[1 - end] in ("open", "covered"):
                 continue  # its other end is no end either
@@ -190,6 +200,18 @@ def _line(q: F64) -> tuple[F64, F64]:
     return c, u
 
 
+def _a_line(c: Candidate) -> bool:
+    """Whether ``c`` may be a crossbar: a line of its own, seen to an end at one end at least.
+
+    Not a path refused for joining two different lines across an unseen stretch, nor a line
+    fading out inside a sheet at both ends (a piece of a line, a mark): a scratch ending on the
+    joint would take the joint's piece for a crossbar and itself for a stem.
+    """
+    if c.points is None or len(c.points) < 3 or "turns" in c.why_rejected:
+        return False
+    return sum(k in ("open", "covered") for k in c.end_kinds) < 2
+
+
 def _refused_for_an_end(c: Candidate) -> bool:
     """Whether ``c`` was refused only for how an end was read.
 
@@ -242,6 +264,35 @@ def _end_on(stem: Candidate, bar: Candidate) -> int | None:
         if k >= run_on and len(dense) - 1 - k >= run_on:
             return end
     return None
+
+
+def _plate_beyond(grey: NDArray[np.uint8], lut: F64, stem: Candidate, end: int,
+                  bar: Candidate) -> bool:
+    """Whether a plate lies beyond ``bar`` where ``stem``'s end ``end`` meets it (module doc).
+
+    Read along the stem's course (the chord over its last :data:`_CHORD_PX` before it meets the
+    bar's band), from the bar's far edge on over :data:`BEYOND_PX`, across as wide as the stem's
+    band; a plate where not darker than the sheets before the junction as a dark table is
+    (:func:`controller.vision.seam_ends.darker_than_sheets`).
+    """
+    assert stem.points is not None
+    p = stem.points if end == 1 else stem.points[::-1]
+    hb, ws = _half_width(bar), 2.0 * _half_width(stem)
+    d = _distance(p, _dense(bar))
+    first = int(np.flatnonzero(d <= hb + MARGIN_PX)[0])
+    s = arc_length(p)
+    j = min(int(np.searchsorted(s, s[first] - _CHORD_PX)), first - 1)
+    u = p[first] - p[j]
+    u = u / (np.linalg.norm(u) + 1e-12)
+    nrm = np.array([-u[1], u[0]])
+    sheets = sheet_levels(grey, lut, p[first], u, nrm, ws)
+    along = d[first] + 2.0 * hb + np.arange(2.0, BEYOND_PX + 0.1, 2.0)
+    across = np.linspace(-ws / 2, ws / 2, 5)
+    q = (p[first] + along[:, None, None] * u + across[None, :, None] * nrm).reshape(-1, 2)
+    val, inside = bilinear(grey, lut, q[:, 0], q[:, 1])
+    if sheets is None or inside.sum() < len(q) // 2:
+        return False
+    return not darker_than_sheets(val[inside], min(sheets))
 
 
 def _angle_deg(p: F64, first: int, dense: F64) -> float:
