@@ -10,8 +10,8 @@ import cv2
 import numpy as np
 import pytest
 from drawn_plates import S, render
+from rendered_cases import rendered_view
 
-from bench import detect_cases
 from bench.detect_score import score_view
 from controller.cli import main
 from controller.errors import SeamNotFound
@@ -92,14 +92,8 @@ def test_detect_seam_looks_shrunk_only_where_the_full_size_search_refuses(
 def close_up(tmp_path_factory: pytest.TempPathFactory) -> tuple[np.ndarray, dict]:
     """A close-up of the simulator (dark, noisy, defocused, a 21 px gap band between two rounded
     plate corners), rendered here: (image, truth)."""
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(detect_cases, "CACHE", tmp_path_factory.mktemp("cache"))
-        case = ("wide", "medium", "tuning", 10073)
-        detect_cases.render_case(case)
-        imgs, z = detect_cases.load_case(case)
-    truth = detect_cases.view_truth(z, 1)
-    truth["image_size"] = (imgs[1].shape[1], imgs[1].shape[0])
-    return imgs[1], truth
+    case = ("wide", "medium", "tuning", 10073)
+    return rendered_view(tmp_path_factory.mktemp("cache"), case, 1)
 
 
 def test_a_simulated_close_up_is_found_on_the_image_shrunk(close_up: tuple[np.ndarray, dict]

@@ -5,8 +5,8 @@ close-up)."""
 import cv2
 import numpy as np
 import pytest
+from rendered_cases import rendered_view
 
-from bench import detect_cases
 from bench.detect_score import score_view
 from controller.errors import AmbiguousSeam
 from controller.vision.seam_decision import choose
@@ -139,13 +139,8 @@ def test_the_stem_is_chosen_over_a_stronger_crossbar_and_a_weak_one_is_a_doubt()
 def test_a_simulated_t_corner_close_up_is_found(tmp_path_factory: pytest.TempPathFactory) -> None:
     # Hard tuning tee 60009 view 0: refused as ambiguous (the crossbar) before; the stem's valley
     # path ran 45 px past the crossbar into the third plate and was read as fading out there.
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(detect_cases, "CACHE", tmp_path_factory.mktemp("cache"))
-        case = ("tee", "hard", "tuning", 60009)
-        detect_cases.render_case(case)
-        imgs, z = detect_cases.load_case(case)
-    truth = detect_cases.view_truth(z, 0)
-    truth["image_size"] = (imgs[0].shape[1], imgs[0].shape[0])
-    det = detect_seam(imgs[0])
+    case = ("tee", "hard", "tuning", 60009)
+    img, truth = rendered_view(tmp_path_factory.mktemp("cache"), case, 0)
+    det = detect_seam(img)
     assert score_view(det.points_px, truth, list(det.end_kinds))["result"] == "found"
     assert any("T-corner" in r for r in det.reasons)

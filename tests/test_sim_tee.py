@@ -3,8 +3,8 @@ beyond a crossbar gap, and the scenes drawn before it unchanged."""
 
 import numpy as np
 import pytest
+from rendered_cases import rendered_view
 
-from bench import detect_cases
 from drivers.sim.sim_look import FX_NOMINAL
 from drivers.sim.sim_scene import make_scene
 
@@ -33,13 +33,10 @@ def test_the_other_varieties_draw_what_they_drew_before() -> None:
 def tee_view(tmp_path_factory: pytest.TempPathFactory) -> tuple[np.ndarray, dict]:
     """Tuning tee seed 60000, view 0 (both joint ends in view, the T-corner at one), rendered
     here: (grey image, truth)."""
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(detect_cases, "CACHE", tmp_path_factory.mktemp("cache"))
-        case = ("tee", "medium", "tuning", 60000)
-        detect_cases.render_case(case)
-        imgs, z = detect_cases.load_case(case)
-    img = imgs[0] if imgs[0].ndim == 2 else imgs[0].mean(axis=2)
-    return np.asarray(img, np.float64), detect_cases.view_truth(z, 0)
+    case = ("tee", "medium", "tuning", 60000)
+    img, truth = rendered_view(tmp_path_factory.mktemp("cache"), case, 0)
+    img = img if img.ndim == 2 else img.mean(axis=2)
+    return np.asarray(img, np.float64), truth
 
 
 def test_the_joint_ends_at_a_crossbar_with_the_third_plate_beyond(
