@@ -120,12 +120,13 @@ def cut_stems(tees: list[Tee]) -> None:
 
     Near the junction both lines are pulled toward each other (the dark region is wider there),
     so the end is where the stem's course meets the crossbar's: each fitted straight to the
-    centreline from :data:`CLEAR_WIDTHS` widths (or :data:`CLEAR_PX`) away from the junction over
-    :data:`FIT_PX`, the stem's course carried to the crossbar's near edge (its course offset
-    by half its band's width). The stem's points within that distance of the junction are
-    replaced by points along its course to that end (every 2 px). Every per-point array of the
-    stem follows (``width`` and ``band_points`` carried on, ``bridged`` false: the gap is seen
-    there) and ``length_px``. A stem refused only for how that end was read is judged again.
+    centreline from :data:`CLEAR_WIDTHS` band widths (or :data:`CLEAR_PX`) away from the
+    junction over :data:`FIT_PX`, the stem's course carried to the crossbar's near edge (the
+    crossbar's course moved toward the stem by half the crossbar's band width). The stem's
+    points within that distance of the junction are replaced by points along its course to that
+    end (every 2 px). Every per-point array of the stem follows (``width`` and ``band_points``
+    carried on, ``bridged`` false: the gap is seen there) and ``length_px``. A stem refused only
+    for how that end was read is judged again.
     """
     for t in tees:
         stem = t.stem
@@ -271,8 +272,9 @@ def _plate_beyond(grey: NDArray[np.uint8], lut: F64, stem: Candidate, end: int,
     """Whether a plate lies beyond ``bar`` where ``stem``'s end ``end`` meets it (module doc).
 
     Read along the stem's course (the chord over its last :data:`_CHORD_PX` before it meets the
-    bar's band), from the bar's far edge on over :data:`BEYOND_PX`, across as wide as the stem's
-    band; a plate where not darker than the sheets before the junction as a dark table is
+    bar's band) over :data:`BEYOND_PX`, starting a band's width past where it meets the band
+    (half a band's width past the far edge of a bar crossed square), across as wide as the
+    stem's band; a plate where not darker than the sheets before the junction as a dark table is
     (:func:`controller.vision.seam_ends.darker_than_sheets`).
     """
     assert stem.points is not None
