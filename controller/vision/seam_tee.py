@@ -91,9 +91,10 @@ def find_tees(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate]) -> list
         for bar in cands:
             if bar is stem or not _a_line(bar):
                 continue
-            end = _end_on(stem, bar)
-            if end is None or not _plate_beyond(grey, lut, stem, end, bar):
+            meeting = _end_on(stem, bar)
+            if meeting is None or not _plate_beyond(grey, lut, stem, *meeting, bar):
                 continue
+            end = meeting[0]
             if stem.end_kinds[1 - end] in ("open", "covered"):
                 continue  # its other end is no end either
             along = [c for c in cands if c is not stem and c is not bar and on_tee(c, stem, bar)]
@@ -153,8 +154,7 @@ def _settle(stem: Candidate, end: int, bar: Candidate) -> None:
     hb = _half_width(bar)
     clear = max(CLEAR_WIDTHS * 2.0 * max(hb, _half_width(stem)), CLEAR_PX)
     dense = _dense(bar)
-    d = _distance(pts, dense)
-    first = int(np.flatnonzero(d <= hb + MARGIN_PX)[0])
+    first = int(np.flatnonzero(_distance(pts, dense) <= hb + MARGIN_PX)[0])
     k = int(np.argmin(np.linalg.norm(dense - pts[first], axis=1)))
     lo, hi = int(clear), int(clear + FIT_PX)
     side_pts = np.concatenate([dense[max(k - hi, 0):max(k - lo, 0)], dense[k + lo:k + hi]])
@@ -227,8 +227,12 @@ def _refused_for_an_end(c: Candidate) -> bool:
             or (why.startswith("gap of") and "covered patch" in why))
 
 
-def _end_on(stem: Candidate, bar: Candidate) -> int | None:
-    """Which end of ``stem`` ends on ``bar`` as a T's stem (module doc), or None."""
+def _end_on(stem: Candidate, bar: Candidate) -> tuple[int, int] | None:
+    """Which end of ``stem`` ends on ``bar`` as a T's stem (module doc), or None.
+
+    With it, where they meet: the index of the stem's first point within the bar's band (plus
+    :data:`MARGIN_PX`), the stem's points ordered toward that end.
+    """
     assert stem.points is not None
     hb = _half_width(bar)
     dense = _dense(bar)
@@ -263,13 +267,15 @@ def _end_on(stem: Candidate, bar: Candidate) -> int | None:
         k = int(np.argmin(np.linalg.norm(dense - p[first], axis=1)))
         run_on = max(RUN_ON_PX, 6.0 * hb)
         if k >= run_on and len(dense) - 1 - k >= run_on:
-            return end
+            return end, first
     return None
 
 
-def _plate_beyond(grey: NDArray[np.uint8], lut: F64, stem: Candidate, end: int,
+def _plate_beyond(grey: NDArray[np.uint8], lut: F64, stem: Candidate, end: int, first: int,
                   bar: Candidate) -> bool:
     """Whether a plate lies beyond ``bar`` where ``stem``'s end ``end`` meets it (module doc).
+
+    ``first``: where they meet (:func:`_end_on`).
 
     Read along the stem's course (the chord over its last :data:`_CHORD_PX` before it meets the
     bar's band) over :data:`BEYOND_PX`, starting a band's width past where it meets the band
@@ -280,15 +286,14 @@ def _plate_beyond(grey: NDArray[np.uint8], lut: F64, stem: Candidate, end: int,
     assert stem.points is not None
     p = stem.points if end == 1 else stem.points[::-1]
     hb, ws = _half_width(bar), 2.0 * _half_width(stem)
-    d = _distance(p, _dense(bar))
-    first = int(np.flatnonzero(d <= hb + MARGIN_PX)[0])
+    d_first = float(_distance(p[first:first + 1], _dense(bar))[0])
     s = arc_length(p)
     j = min(int(np.searchsorted(s, s[first] - _CHORD_PX)), first - 1)
     u = p[first] - p[j]
     u = u / (np.linalg.norm(u) + 1e-12)
     nrm = np.array([-u[1], u[0]])
     sheets = sheet_levels(grey, lut, p[first], u, nrm, ws)
-    along = d[first] + 2.0 * hb + np.arange(2.0, BEYOND_PX + 0.1, 2.0)
+    along = d_first + 2.0 * hb + np.arange(2.0, BEYOND_PX + 0.1, 2.0)
     across = np.linspace(-ws / 2, ws / 2, 5)
     q = (p[first] + along[:, None, None] * u + across[None, :, None] * nrm).reshape(-1, 2)
     val, inside = bilinear(grey, lut, q[:, 0], q[:, 1])
