@@ -257,14 +257,14 @@ def _end_on(stem: Candidate, bar: Candidate) -> tuple[int, int] | None:
             continue  # it runs on far past the bar, or is mostly the bar itself
         if kind == "image border" and along < RUN_ON_PX:
             continue  # it leaves the image, not along the bar
-        if _angle_deg(p, first, dense) < MIN_ANGLE_DEG:
+        k = int(np.argmin(np.linalg.norm(dense - p[first], axis=1)))  # the bar's point there
+        if _angle_deg(p, s, first, dense, k) < MIN_ANGLE_DEG:
             continue
         if stem.bridged is not None and len(stem.bridged) == len(p):
             seen = ~(stem.bridged if end == 1 else stem.bridged[::-1])
             before = (s >= s[first] - APPROACH_PX) & (s < s[first])
             if before.any() and float(np.mean(seen[before])) < 0.5:
                 continue  # bridged up to the bar: where it meets it, nothing was seen
-        k = int(np.argmin(np.linalg.norm(dense - p[first], axis=1)))
         run_on = max(RUN_ON_PX, 6.0 * hb)
         if k >= run_on and len(dense) - 1 - k >= run_on:
             return end, first
@@ -302,12 +302,14 @@ def _plate_beyond(grey: NDArray[np.uint8], lut: F64, stem: Candidate, end: int, 
     return not darker_than_sheets(val[inside], min(sheets))
 
 
-def _angle_deg(p: F64, first: int, dense: F64) -> float:
-    """Angle (deg, 0-90) between ``p`` before its point ``first`` and ``dense`` nearest it."""
-    s = arc_length(p)
+def _angle_deg(p: F64, s: F64, first: int, dense: F64, k: int) -> float:
+    """Angle (deg, 0-90) between ``p`` before its point ``first`` and ``dense`` at its point ``k``.
+
+    ``s``: the arc length along ``p`` (:func:`arc_length`); ``k``: the point of ``dense``
+    nearest ``p[first]``.
+    """
     j = int(np.searchsorted(s, s[first] - _CHORD_PX))
     a = p[first] - p[min(j, max(first - 1, 0))]
-    k = int(np.argmin(np.linalg.norm(dense - p[first], axis=1)))
     n = int(_CHORD_PX / 2)
     b = dense[min(k + n, len(dense) - 1)] - dense[max(k - n, 0)]
     cos = abs(float(a @ b)) / (float(np.linalg.norm(a) * np.linalg.norm(b)) + 1e-12)
