@@ -11,7 +11,12 @@ from bench.detect_score import score_view
 from controller.errors import AmbiguousSeam
 from controller.vision.seam_decision import choose
 from controller.vision.seam_detect import detect_seam
-from controller.vision.seam_params import Candidate, DetectParams
+from controller.vision.seam_params import (
+    JOINED_LINES,
+    OPEN_END,
+    Candidate,
+    DetectParams,
+)
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_tee import cut_stems, find_tees
 
@@ -53,15 +58,19 @@ def test_the_stem_of_a_t_is_returned_with_its_end_at_the_crossbars_near_edge() -
 
 
 def _line(p0, p1, width=8.0, kinds=("sheet border", "sheet border"), score=1000.0, why="",
-          step=2.0, bridged=None) -> Candidate:
-    """A candidate along the straight line p0 -> p1 (px), a point every ``step`` px."""
+          step=2.0, bridged=None, refused=None) -> Candidate:
+    """A candidate along the straight line p0 -> p1 (px), a point every ``step`` px.
+
+    ``why``, ``refused``: its refusal's message and code (by default ``OPEN_END`` with a message).
+    """
     p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
     n = int(np.linalg.norm(p1 - p0) / step) + 1
     pts = p0 + np.outer(np.linspace(0, 1, n), p1 - p0)
     br = np.zeros(n, bool) if bridged is None else bridged(pts)
     return Candidate(pts, 1.0, float(np.linalg.norm(p1 - p0)), points=pts, width=np.full(n, width),
                      depth=0.8, valid_frac=1.0, score=score, end_kinds=kinds, bridged=br,
-                     way="valley path", why_rejected=why, rival=bool(why))
+                     way="valley path", why_rejected=why, rival=bool(why),
+                     refused=(OPEN_END if why else "") if refused is None else refused)
 
 
 def _bar() -> Candidate:
@@ -120,7 +129,24 @@ def test_a_piece_of_a_line_or_a_joined_path_is_no_crossbar(why: str) -> None:
         bar.end_kinds, bar.why_rejected = ("open", "open"), "dark line of 500 px fades out"
     else:
         bar.why_rejected = "valley path turns 40 deg across an unseen stretch: it joins two lines"
+        bar.refused = JOINED_LINES
     assert find_tees(PLATES, LUT, [bar, stem]) == []
+
+
+def test_what_a_line_was_refused_for_is_read_from_its_code_not_its_wording() -> None:
+    # The rules read a refusal again by its code (seam_params): a message worded otherwise, or
+    # one naming an open end for another refusal, changes nothing.
+    def stem(why: str, refused: str) -> Candidate:
+        c = _line((0, 450), (930, 450), kinds=("image border", "open"), why=why, refused=refused)
+        c.stats = {"support": 1.0}
+        return c
+
+    assert len(find_tees(PLATES, LUT, [_bar(), stem("ends nowhere", OPEN_END)])) == 1
+    other = stem("valley path along a dark line that fades out inside a sheet", "")
+    assert find_tees(PLATES, LUT, [_bar(), other]) == []
+    joined = _line((900, 0), (900, 900), width=10.0, kinds=("image border", "image border"),
+                   why="two lines", refused=JOINED_LINES)
+    assert find_tees(PLATES, LUT, [joined, stem("ends nowhere", OPEN_END)]) == []
 
 
 def _choose(cands):

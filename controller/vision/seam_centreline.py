@@ -14,7 +14,14 @@ from numpy.typing import NDArray
 
 from controller.vision.scipy_equivalents import CubicSpline, savgol_filter
 from controller.vision.seam_ends import end_offset, measure_tails
-from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
+from controller.vision.seam_params import (
+    COVERED_END,
+    F64,
+    OPEN_END,
+    Candidate,
+    DetectParams,
+    runs_of,
+)
 from controller.vision.seam_profiles import fit_at, resample, track_on
 from controller.vision.seam_shadow import split_shadow
 
@@ -194,6 +201,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         # piece's end is not the joint's. The whole-image valley path bridges such patches.
         c.why_rejected = (f"gap of {length:.0f} px stops at a covered patch (a tack weld, "
                           "spatter) with the gap going on beyond it: not an end")
+        c.refused = COVERED_END
         # A piece of a seam that goes on: another line is no surer than this one is strong.
         c.rival = True
         c.score = length * c.depth * c.valid_frac
@@ -205,6 +213,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         where = "both ends" if c.end_kinds == ("open", "open") else "one end"
         c.why_rejected = (f"dark line of {length:.0f} px fades out inside the sheet at {where} "
                           "(a pen line or scratch, or one plate's outer edge: not a joint)")
+        c.refused = OPEN_END
         # Seen to a border at one end, it may be a faint joint whose other end is lost: it is not
         # returned, but a seam only a little stronger than it is not sure either.
         c.rival = where == "one end"

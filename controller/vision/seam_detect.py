@@ -81,7 +81,7 @@ from controller.vision.seam_decision import (
 from controller.vision.seam_detection import SeamDetection
 from controller.vision.seam_edge_ends import correct_edge_ends
 from controller.vision.seam_parallel import no_parallel_valley
-from controller.vision.seam_params import F64, Candidate, DetectParams
+from controller.vision.seam_params import F64, OPEN_END, Candidate, DetectParams
 from controller.vision.seam_pattern import (
     Straighten,
     mark_table_lines,
@@ -207,7 +207,7 @@ def faded_lines(cands: list[Candidate]) -> list[F64]:
     along one of them is not a seam (:func:`controller.vision.seam_robust.robust_candidates`).
     """
     return [c.points for c in cands if c.points is not None
-            and ("fades out" in c.why_rejected or "open" in c.end_kinds)]
+            and (c.refused == OPEN_END or "open" in c.end_kinds)]
 
 
 def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: TableCheck,
@@ -256,7 +256,7 @@ def _hairline_look(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], tab
             # duplicate of a line it judged is no rival either.
             c.why_rejected = (f"line {float(np.median(c.width)):.1f} px wide found only on the "
                               "finer search grid")
-            c.rival = False
+            c.rival, c.refused = False, ""
     return fine
 
 

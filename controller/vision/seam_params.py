@@ -96,6 +96,15 @@ class DetectParams:
     min_gap_px: float = 0.0
 
 
+#: Refusals a later rule reads again (``Candidate.refused``); ``why_rejected`` says them to people.
+#: An end fades out inside a sheet.
+OPEN_END = "open end"
+#: An end stops at a covered patch (a tack weld, spatter) with the gap going on beyond it.
+COVERED_END = "covered end"
+#: A valley path turns across an unseen stretch: it joins two different lines.
+JOINED_LINES = "joined lines"
+
+
 @dataclass
 class Candidate:
     """One seam candidate: the coarse polyline, then the refined centreline and its scores."""
@@ -119,6 +128,7 @@ class Candidate:
     rival: bool = False  # rejected, but its line may be the joint: still makes others ambiguous
     way: str = "profiles"  # or "valley path" (controller.vision.seam_robust)
     why_rejected: str = ""
+    refused: str = ""  # OPEN_END, COVERED_END, JOINED_LINES; "" for any other refusal
 
 
 @dataclass

@@ -25,7 +25,15 @@ from numpy.typing import NDArray
 
 from controller.vision.seam_coarse import share_near
 from controller.vision.seam_ends import border_crossing, end_offset
-from controller.vision.seam_params import F64, Candidate, DetectParams, runs_of
+from controller.vision.seam_params import (
+    COVERED_END,
+    F64,
+    JOINED_LINES,
+    OPEN_END,
+    Candidate,
+    DetectParams,
+    runs_of,
+)
 from controller.vision.seam_path_ends import END_COVER_PX, follow_ends, trim_at_sheet_borders
 from controller.vision.seam_profiles import bilinear, fit_at, resample
 from controller.vision.seam_track import ValleyPath, find_paths, robust_line
@@ -193,22 +201,25 @@ def judge_path(c: Candidate) -> None:
     (:mod:`controller.vision.seam_tee`).
     """
     assert c.bridged is not None
-    c.why_rejected, c.rival = "", False
+    c.why_rejected, c.rival, c.refused = "", False, ""
     seen = float(np.mean(~c.bridged))
     support = c.stats.get("support", 0.0)
     bent = c.stats.get("bent_deg")
     if bent is not None:
         c.why_rejected = (f"valley path turns {bent:.0f} deg across an unseen stretch: it joins "
                           "two different lines (a covered joint does not turn under the patch)")
+        c.refused = JOINED_LINES
         # One of the two lines may be the joint: a strong rival all the same.
         c.rival = True
     elif "covered" in c.end_kinds:
         c.why_rejected = (f"valley path of {c.length_px:.0f} px stops at a covered patch (a tack "
                           "weld, spatter) with the gap going on beyond it: not an end")
+        c.refused = COVERED_END
     elif "open" in c.end_kinds:
         c.why_rejected = (f"dark line of {c.length_px:.0f} px fades out inside a sheet "
                           "(a pen or soapstone line, a scratch, one plate's outer edge: not a "
                           "joint)")
+        c.refused = OPEN_END
         # A whole-image path may have joined a line with pieces of another: a rejected line as
         # strong as the best one leaves the choice in doubt.
         c.rival = True

@@ -47,7 +47,14 @@ from numpy.typing import NDArray
 
 from controller.vision.seam_decision import arc_length
 from controller.vision.seam_ends import darker_than_sheets
-from controller.vision.seam_params import F64, Candidate, Tee
+from controller.vision.seam_params import (
+    COVERED_END,
+    F64,
+    JOINED_LINES,
+    OPEN_END,
+    Candidate,
+    Tee,
+)
 from controller.vision.seam_profiles import bilinear, resample
 from controller.vision.seam_robust import judge_path
 from controller.vision.seam_wedge import sheet_levels
@@ -139,8 +146,8 @@ def cut_stems(tees: list[Tee]) -> None:
             continue
         if stem.way == "valley path":
             judge_path(stem)
-        elif "open" not in stem.end_kinds and "covered" not in stem.end_kinds:
-            stem.why_rejected, stem.rival = "", False
+        elif _ends_open(stem) == 0:
+            stem.why_rejected, stem.rival, stem.refused = "", False, ""
 
 
 def _settle(stem: Candidate, end: int, bar: Candidate) -> None:
@@ -208,23 +215,23 @@ def _a_line(c: Candidate) -> bool:
     fading out inside a sheet at both ends (a piece of a line, a mark): a scratch ending on the
     joint would take the joint's piece for a crossbar and itself for a stem.
     """
-    if c.points is None or len(c.points) < 3 or "turns" in c.why_rejected:
+    if c.points is None or len(c.points) < 3 or c.refused == JOINED_LINES:
         return False
-    return sum(k in ("open", "covered") for k in c.end_kinds) < 2
+    return _ends_open(c) < 2
 
 
 def _refused_for_an_end(c: Candidate) -> bool:
     """Whether ``c`` was refused only for how an end was read.
 
     Fading out inside a sheet, or stopping at a covered patch with a gap beyond (at a T, the
-    crossbar's gap is beyond).
+    crossbar's gap is beyond); at one end only (:func:`find_tees` asks the other to be an end).
     """
-    why = c.why_rejected
-    if c.way == "valley path":
-        return ((why.startswith("dark line of") and "fades out" in why)
-                or (why.startswith("valley path of") and "covered patch" in why))
-    return ("fades out inside the sheet at one end" in why
-            or (why.startswith("gap of") and "covered patch" in why))
+    return c.refused in (OPEN_END, COVERED_END) and _ends_open(c) < 2
+
+
+def _ends_open(c: Candidate) -> int:
+    """How many of ``c``'s ends are no ends: fading out inside a sheet or covered."""
+    return sum(k in ("open", "covered") for k in c.end_kinds)
 
 
 def _end_on(stem: Candidate, bar: Candidate) -> tuple[int, int] | None:
