@@ -90,6 +90,13 @@ def find_tees(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate]) -> list
     ``cands``).
     """
     out = []
+    cache: dict[int, F64] = {}
+
+    def dense(c: Candidate) -> F64:  # each line resampled once, whatever it is paired with
+        if id(c) not in cache:
+            cache[id(c)] = _dense(c)
+        return cache[id(c)]
+
     for stem in cands:
         if stem.points is None or len(stem.points) < 3:
             continue
@@ -98,28 +105,31 @@ def find_tees(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate]) -> list
         for bar in cands:
             if bar is stem or not _a_line(bar):
                 continue
-            meeting = _end_on(stem, bar)
-            if meeting is None or not _plate_beyond(grey, lut, stem, *meeting, bar):
+            meeting = _end_on(stem, bar, dense(bar))
+            if meeting is None or not _plate_beyond(grey, lut, stem, *meeting, bar, dense(bar)):
                 continue
             end = meeting[0]
             if stem.end_kinds[1 - end] in ("open", "covered"):
                 continue  # its other end is no end either
-            along = [c for c in cands if c is not stem and c is not bar and on_tee(c, stem, bar)]
+            along = [c for c in cands if c is not stem and c is not bar
+                     and on_tee(c, stem, bar, dense(stem), dense(bar))]
             out.append(Tee(stem, end, bar, along))
             break
     return out
 
 
-def on_tee(c: Candidate, stem: Candidate, bar: Candidate) -> bool:
+def on_tee(c: Candidate, stem: Candidate, bar: Candidate, stem_dense: F64,
+           bar_dense: F64) -> bool:
     """Whether ``c`` lies along the T of ``stem`` and ``bar`` (a path that turned at the T).
 
-    90 % of its points within the wider of the two bands' half widths plus :data:`MARGIN_PX` of
-    one or the other: it is no line of its own, and no rival to the stem.
+    ``stem_dense``, ``bar_dense``: their centrelines a point every px (:func:`_dense`). 90 % of
+    its points within the wider of the two bands' half widths plus :data:`MARGIN_PX` of one or
+    the other: it is no line of its own, and no rival to the stem.
     """
     if c.points is None:
         return False
     tol = max(_half_width(stem), _half_width(bar)) + MARGIN_PX
-    d = np.minimum(_distance(c.points[::4], _dense(stem)), _distance(c.points[::4], _dense(bar)))
+    d = np.minimum(_distance(c.points[::4], stem_dense), _distance(c.points[::4], bar_dense))
     return bool(np.mean(d <= tol) >= 0.9)
 
 
@@ -234,15 +244,16 @@ def _ends_open(c: Candidate) -> int:
     return sum(k in ("open", "covered") for k in c.end_kinds)
 
 
-def _end_on(stem: Candidate, bar: Candidate) -> tuple[int, int] | None:
+def _end_on(stem: Candidate, bar: Candidate, dense: F64) -> tuple[int, int] | None:
     """Which end of ``stem`` ends on ``bar`` as a T's stem (module doc), or None.
+
+    ``dense``: ``bar``'s centreline a point every px (:func:`_dense`).
 
     With it, where they meet: the index of the stem's first point within the bar's band (plus
     :data:`MARGIN_PX`), the stem's points ordered toward that end.
     """
     assert stem.points is not None
     hb = _half_width(bar)
-    dense = _dense(bar)
     for end in (0, 1):
         p = stem.points if end == 1 else stem.points[::-1]
         kind = stem.end_kinds[end]
@@ -279,10 +290,11 @@ def _end_on(stem: Candidate, bar: Candidate) -> tuple[int, int] | None:
 
 
 def _plate_beyond(grey: NDArray[np.uint8], lut: F64, stem: Candidate, end: int, first: int,
-                  bar: Candidate) -> bool:
+                  bar: Candidate, dense: F64) -> bool:
     """Whether a plate lies beyond ``bar`` where ``stem``'s end ``end`` meets it (module doc).
 
-    ``first``: where they meet (:func:`_end_on`).
+    ``first``: where they meet (:func:`_end_on`); ``dense``: ``bar``'s centreline a point every
+    px (:func:`_dense`).
 
     Read along the stem's course (the chord over its last :data:`_CHORD_PX` before it meets the
     bar's band) over :data:`BEYOND_PX`, starting a band's width past where it meets the band
@@ -293,7 +305,7 @@ def _plate_beyond(grey: NDArray[np.uint8], lut: F64, stem: Candidate, end: int, 
     assert stem.points is not None
     p = stem.points if end == 1 else stem.points[::-1]
     hb, ws = _half_width(bar), 2.0 * _half_width(stem)
-    d_first = float(_distance(p[first:first + 1], _dense(bar))[0])
+    d_first = float(_distance(p[first:first + 1], dense)[0])
     s = arc_length(p)
     j = min(int(np.searchsorted(s, s[first] - _CHORD_PX)), first - 1)
     u = p[first] - p[j]
