@@ -5,6 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from rendered_cases import rendered_view
 
 from controller.vision import seam_centreline
 from controller.vision.seam_detect import detect_seam
@@ -96,3 +97,26 @@ def test_a_long_hole_in_an_s_bend_is_bridged_along_the_bend() -> None:
     out = seam_centreline._bridge_long_holes(t, pts, ok, long=10, reach=40)
     assert np.abs(out[~ok, 1] - pts[~ok, 1]).max() < 1.7
     assert np.array_equal(out[ok], pts[ok])
+
+
+@pytest.fixture(scope="module")
+def sheet_end_near_the_edge(tmp_path_factory: pytest.TempPathFactory
+                            ) -> tuple[np.ndarray, dict]:
+    """Wide easy tuning 10188, view 1, rendered here: the sheets end 13 px before the image's
+    right edge, a grey table beyond them."""
+    return rendered_view(tmp_path_factory.mktemp("cache"), ("wide", "easy", "tuning", 10188), 1)
+
+
+def test_a_sheet_border_near_the_image_edge_is_a_joint_end(
+        sheet_end_near_the_edge: tuple[np.ndarray, dict]) -> None:
+    # The lines 48 px beside the joint step where the sheets end, 13 px before the image edge.
+    # A step used to need 20 px of image after it to count: the end, read at the right place,
+    # was then "where the view stops" (image_border), a wrong end kind at confidence 1.0.
+    from bench.detect_score import score_view
+
+    img, truth = sheet_end_near_the_edge
+    assert truth["end_kinds"] == ["image_border", "joint_end"]
+    assert truth["image_size"][0] - 1 - truth["seam_px"][-1][0] < 15.0
+    det = detect_seam(img)
+    assert det.end_kinds == ("image_border", "joint_end")
+    assert score_view(det.points_px, truth, list(det.end_kinds))["result"] == "found"

@@ -356,8 +356,8 @@ def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
         start = end_pt + o * nrm
         if not (0 <= start[0] <= W - 1 and 0 <= start[1] <= H - 1):
             continue
-        # A step needs 20 px of image after it to be seen to last.
-        room = border_crossing(start, tang, W, H, float(ks[-1])) - 20.0
+        # A step is seen to last over what is left of the image after it, at least _ROOM_PX.
+        room = border_crossing(start, tang, W, H, float(ks[-1])) - _ROOM_PX
         if any(k < room for k in side_crossings(grey, lut, start + np.outer(ks, tang), ks,
                                                 entered=True)):
             return True
@@ -365,6 +365,11 @@ def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
 
 
 _FAR_PX = 48.0  # beside the joint, past the half width of a tack bead
+# Image needed after a step beside the joint for it to count as lasting: what side_steps reads
+# on each side of a step (6 px). Was 20 px: a sheet border 10-30 px from the image edge was then
+# no evidence, and the end, read right, was called the image border (wide easy tuning 10188
+# view 1, 10186 view 1, hard 10081 view 0: wrong end kinds at confidence 0.8-1.0).
+_ROOM_PX = 6.0
 # Room needed beyond a sheet-border end to tell it from a tack weld: a bead (up to ~80 px in the
 # dry run's and the photographs' views) and a run of the gap beyond it.
 _VERIFY_PX = 80.0 + RESUME_RUN_PX
