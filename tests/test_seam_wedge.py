@@ -20,15 +20,16 @@ TANG = np.array([1.0, 0.0])
 LUT = linear_lut(2.2)
 
 
-def _render(mask: np.ndarray, seed: int) -> np.ndarray:
-    """Image from a supersampled sheet mask (255 sheet, 0 dark), blurred and noisy.
+def _render(mask: np.ndarray, seed: int, table_grey: float = TABLE) -> np.ndarray:
+    """Image from a supersampled sheet mask (255 sheet, 0 table grey ``table_grey``), blurred
+    and noisy.
 
     Light is mixed and blurred in linear radiance, as a lens does, then encoded with the
     camera's gamma of 2.2 (the detector's default).
     """
     cov = cv2.resize(mask.astype(np.float32) / 255, (mask.shape[1] // S, mask.shape[0] // S),
                      interpolation=cv2.INTER_AREA)
-    sheet, table = LUT[int(SHEET)], LUT[int(TABLE)]
+    sheet, table = LUT[int(SHEET)], LUT[int(table_grey)]
     lin = cv2.GaussianBlur(table + (sheet - table) * cov, (0, 0), 1.0)
     img = 255.0 * lin ** (1 / 2.2) + np.random.default_rng(seed).normal(0, 2.0, lin.shape)
     return np.clip(img, 0, 255).astype(np.uint8)
@@ -41,9 +42,10 @@ def _sheets(gap: float) -> np.ndarray:
     return m
 
 
-def corners(gap: float, radius: float, seed: int) -> tuple[np.ndarray, float]:
+def corners(gap: float, radius: float, seed: int, table_grey: float = TABLE
+            ) -> tuple[np.ndarray, float]:
     """(image, x of the truth end): each sheet's edge along the gap curves away from it from
-    x = 700 on, a corner of ``radius`` px; beyond, the table."""
+    x = 700 on, a corner of ``radius`` px; beyond, the table (grey ``table_grey``)."""
     m = _sheets(gap)
     g, R, xc = gap * S, radius * S, 700 * S
     for sgn in (-1, 1):  # upper sheet (edge at y = 300 - gap / 2), lower sheet
@@ -56,7 +58,7 @@ def corners(gap: float, radius: float, seed: int) -> tuple[np.ndarray, float]:
         m[ys[0]:ys[1], xc + int(R):] = 0
     # The gap has opened to twice its width where each edge has receded by gap / 2.
     x_end = 700 + np.sqrt(radius ** 2 - (radius - gap / 2) ** 2)
-    return _render(m, seed), float(x_end) - 0.5 + 0.5 / S
+    return _render(m, seed, table_grey), float(x_end) - 0.5 + 0.5 / S
 
 
 @pytest.mark.parametrize("gap,radius", [(2.0, 100.0), (3.0, 150.0), (4.0, 200.0), (2.0, 40.0),
@@ -130,6 +132,26 @@ def test_a_perforated_table_in_the_wedge_is_no_single_level_to_read_edges_agains
     assert wedge_end(grey, LUT, np.array([700.0, 300.0]), TANG, 3.0) is None
 
 
+@pytest.mark.parametrize("share", [0.6, 0.68])
+def test_a_wedge_on_a_grey_table_is_read(share: float) -> None:
+    # A table at 60-68 % of the sheets' level (linear radiance; grey 135-143 beside sheets of
+    # 170): the wedge reads as plainly as on a dark one. Under half was asked before, and such
+    # ends were called open (wide easy tuning 10067: a grey table beside white sheets). With a
+    # third of the contrast the end is read within 2.5 px (1.5 px on the dark table above).
+    grey = SHEET * share ** (1 / 2.2)
+    img, x_end = corners(3.0, 150.0, seed=31, table_grey=grey)
+    for start in (x_end - 20.0, x_end - 6.0, x_end):
+        k = wedge_end(img, LUT, np.array([start, 300.0]), TANG, 3.0)
+        assert k is not None and abs(start + k - x_end) <= 2.5, (start, k, x_end)
+
+
+def test_a_table_almost_as_bright_as_the_sheets_is_no_wedge_to_read() -> None:
+    # At 85 % of the sheets' level the region half-way is under 8 % darker than the sheets:
+    # nearer the noise than the shape checks are made for.
+    img, x_end = corners(3.0, 150.0, seed=32, table_grey=SHEET * 0.85 ** (1 / 2.2))
+    assert wedge_end(img, LUT, np.array([x_end - 6.0, 300.0]), TANG, 3.0) is None
+
+
 def test_a_band_of_8_px_or_more_is_not_read_so():
     # A wide dark band is often a gap with a shadow beside it, which runs on into the table:
     # its end is left to the lines beside it (seam_border), however plain the wedge.
@@ -147,3 +169,19 @@ def test_the_detector_returns_the_joint_ending_between_two_large_rounded_corners
     det = detect_seam(img)
     assert det.end_kinds == ("image_border", "joint_end")
     assert abs(det.endpoints_px[1][0] - x_end) <= 2.0 and abs(det.endpoints_px[1][1] - 300) <= 1.0
+
+
+def test_a_simulated_joint_between_rounded_corners_on_a_grey_table_is_found(
+        tmp_path_factory: pytest.TempPathFactory) -> None:
+    # Wide easy tuning 10067, view 0: white sheets with corners of 24 mm on a grey table (0.57 of
+    # the darker sheet's level), refused as a line fading out inside a sheet until the wedge was
+    # read on tables up to 0.7 of the sheets.
+    from rendered_cases import rendered_view
+
+    from bench.detect_score import score_view
+
+    img, truth = rendered_view(tmp_path_factory.mktemp("cache"), ("wide", "easy", "tuning", 10067),
+                               0)
+    det = detect_seam(img)
+    assert det.end_kinds == ("joint_end", "joint_end")
+    assert score_view(det.points_px, truth, list(det.end_kinds))["result"] == "found"

@@ -34,6 +34,13 @@ _SHEETS_PX = (-40.0, -8.0)  # where the sheets are read, along, before the point
 # table: on the extended tuning part, 6 of the first 10 wrong seams this reading added while it
 # was built had bands of 8.9-12 px (step shadows, shading beside the gap), 2 of the 19 it found.
 _MAX_BAND = 0.5
+# The table in the wedge is at most this share of the darker sheet's level: the region read is
+# then at least 15 % under the sheets at its half-way level, which the shape checks
+# (:func:`_is_wedge`: one level, edges receding ever faster) need to see, not the 25 % step a
+# border line asks. Was 0.5: wedges on a grey table beside white sheets (a share of 0.57-0.6,
+# wide easy tuning 10067 both views, hard 10012 view 1) were refused as fading out inside a
+# sheet. 0.85 read the same views of the extended tuning part as 0.7.
+_TABLE_SHARE = 0.7
 
 
 def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
@@ -44,7 +51,8 @@ def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
     unit, pointing out of the seam. None for a band of 8 px or more (``_MAX_BAND``). Profiles
     across the seam every 2 px from 40 px before the point to ``reach = max(64, 8 w_med)`` px
     past it, ``reach`` px to either side. Returns None unless they show a wedge of table
-    between two rounded corners (:func:`_is_wedge`). The gap's width is read where it was
+    between two rounded corners (:func:`_is_wedge`) on a table darker than the sheets
+    (:data:`_TABLE_SHARE`). The gap's width is read where it was
     still whole (12-40 px before the point: the lower quartile, for a large corner that has
     begun to open it) as its dark area (0 on the sheets, 1 on the table, summed: blur spreads
     an edge but keeps the area, so a hairline too faint to pass half-way is read as well) or,
@@ -74,7 +82,7 @@ def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
     # brightness is half-way between it and the sheets (where a blurred step's middle is).
     c = len(os_) // 2
     table = float(np.median(val[-5:, c - 2:c + 3]))
-    if table >= 0.5 * min(sheets):
+    if table >= _TABLE_SHARE * min(sheets):
         return None
     lo, hi = _region_edges(val, os_, 0.5 * (table + min(sheets)), w_med)
     if not _is_wedge(val, ks, os_, lo, hi, sheets, w_med, reach):
