@@ -168,7 +168,6 @@ def fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParam
     U = pts[:, 0:1] + nrm[:, 0:1] * x[None, :]
     V = pts[:, 1:2] + nrm[:, 1:2] * x[None, :]
     prof, inside = bilinear(grey, lut, U, V)
-    prof = flatten_ridges(prof, x)
     prm, rms = _fit_profiles(x, prof, p.fit_iterations)
     L, R, F, cc, w, s = prm.T
     side = np.minimum(L, R)
@@ -183,41 +182,6 @@ def fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParam
     return {"valid": valid, "centre": centre, "depth": depth, "width": w, "rms": rms,
             "contrast": side - F, "left": L, "right": R, "normal": nrm, "params": prm,
             "profiles": prof}
-
-
-#: A ridge stands this share of its height over the valley's floor above the profile's end.
-RIDGE_REL = 0.25
-RIDGE_NEAR_PX = 4.0  # the valley: the darkest point this near the line
-RIDGE_REACH_PX = 10.0  # the ridges: the brightest points this near the valley
-
-
-def flatten_ridges(prof: F64, x: F64) -> F64:
-    """Profiles (rows, samples at offsets ``x`` px) flattened beyond a ridge either side.
-
-    A profile with a bright ridge on both sides of its valley is set to each ridge's level
-    beyond it: the shop look's hairline between two ground-strip ridges is then read as a gap
-    between sheets at the ridges' level (README, tenth session: measured, not kept).
-    """
-    K, S = prof.shape
-    sm = cv2.GaussianBlur(prof.astype(np.float32), (0, 0), sigmaX=1.0, sigmaY=0.01).astype(
-        np.float64) if S > 4 else prof
-    zi = np.argmin(np.where((np.abs(x) <= RIDGE_NEAR_PX)[None, :], sm, np.inf), axis=1)
-    idx = np.arange(S)[None, :]
-    reach = np.abs(x[None, :] - x[zi][:, None]) <= RIDGE_REACH_PX
-    li = np.argmax(np.where((idx < zi[:, None]) & reach, sm, -np.inf), axis=1)
-    ri = np.argmax(np.where((idx > zi[:, None]) & reach, sm, -np.inf), axis=1)
-    rows = np.arange(K)
-    lmax, rmax, floor = sm[rows, li], sm[rows, ri], sm[rows, zi]
-    n_side = max(3, S // 6)
-    lend = np.median(prof[:, :n_side], axis=1)
-    rend = np.median(prof[:, -n_side:], axis=1)
-    ok = ((li > 0) & (ri < S - 1) & (lmax - lend > RIDGE_REL * (lmax - floor))
-          & (rmax - rend > RIDGE_REL * (rmax - floor)))
-    out = prof.copy()
-    for k in np.flatnonzero(ok):
-        out[k, :li[k]] = prof[k, li[k]]
-        out[k, ri[k] + 1:] = prof[k, ri[k]]
-    return out
 
 
 def track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectParams,
