@@ -173,9 +173,9 @@ def test_the_detector_returns_the_joint_ending_between_two_large_rounded_corners
 
 def test_a_simulated_joint_between_rounded_corners_on_a_grey_table_is_found(
         tmp_path_factory: pytest.TempPathFactory) -> None:
-    # Wide easy tuning 10067, view 0: white sheets with corners of 24 mm on a grey table (0.57 of
-    # the darker sheet's level), refused as a line fading out inside a sheet until the wedge was
-    # read on tables up to 0.7 of the sheets.
+    # Wide easy tuning 10067, view 0: white sheets with corners of 24 mm on a grey table (just
+    # over half the darker sheet's level), refused as a line fading out inside a sheet until the
+    # wedge was read on tables up to 0.7 of the sheets.
     from rendered_cases import rendered_view
 
     from bench.detect_score import score_view

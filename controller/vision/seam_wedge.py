@@ -37,9 +37,9 @@ _MAX_BAND = 0.5
 # The table in the wedge is at most this share of the darker sheet's level: the region read is
 # then at least 15 % under the sheets at its half-way level, which the shape checks
 # (:func:`_is_wedge`: one level, edges receding ever faster) need to see, not the 25 % step a
-# border line asks. Was 0.5: wedges on a grey table beside white sheets (a share of 0.57-0.6,
-# wide easy tuning 10067 both views, hard 10012 view 1) were refused as fading out inside a
-# sheet. 0.85 read the same views of the extended tuning part as 0.7.
+# border line asks. Was 0.5: wedges on a grey table beside white sheets (a share just over a
+# half, 0.51-0.57, wide easy tuning 10067 both views, hard 10012 view 1) were refused as fading
+# out inside a sheet. 0.85 read the same views of the extended tuning part as 0.7.
 _TABLE_SHARE = 0.7
 
 
