@@ -152,22 +152,12 @@ def test_a_table_almost_as_bright_as_the_sheets_is_no_wedge_to_read() -> None:
     assert wedge_end(img, LUT, np.array([x_end - 6.0, 300.0]), TANG, 3.0) is None
 
 
-@pytest.mark.parametrize("gap, radius", [(8.0, 60.0), (10.0, 80.0), (12.0, 100.0)])
-def test_a_band_of_8_to_16_px_is_read_so(gap: float, radius: float) -> None:
-    # Bands of 8 px and more were left to the lines beside the gap (a shadow beside a gap runs
-    # on into the table); the checks on the gap's width before the corner now refuse those, and
-    # a plain wide gap between rounded corners is read as a narrow one is (2026-12-06).
-    img, x_end = corners(gap, radius, seed=8)
-    for start in (x_end - 20.0, x_end - 6.0, x_end):
-        k = wedge_end(img, LUT, np.array([start, 300.0]), TANG, gap)
-        assert k is not None and abs(start + k - x_end) <= 1.0, (start, k, x_end)
-
-
-def test_a_band_of_16_px_or_more_is_not_read_so() -> None:
-    # As wide as the widest gap the defaults accept: a close-up's blurred band, whose end is
-    # left to the lines beside it (seam_border), however plain the wedge.
+def test_a_band_of_8_px_or_more_is_not_read_so():
+    # A wide dark band is often a gap with a shadow beside it, which runs on into the table:
+    # its end is left to the lines beside it (seam_border), however plain the wedge.
     img, x_end = corners(8.0, 60.0, seed=8)
-    assert wedge_end(img, LUT, np.array([x_end - 6.0, 300.0]), TANG, 16.0) is None
+    assert wedge_end(img, LUT, np.array([x_end - 6.0, 300.0]), TANG, 8.0) is None
+    assert wedge_end(img, LUT, np.array([x_end - 6.0, 300.0]), TANG, 7.5) is not None
 
 
 @pytest.mark.parametrize("gap,radius", [(2.0, 100.0), (3.0, 150.0), (4.0, 200.0)])
@@ -179,21 +169,6 @@ def test_the_detector_returns_the_joint_ending_between_two_large_rounded_corners
     det = detect_seam(img)
     assert det.end_kinds == ("image_border", "joint_end")
     assert abs(det.endpoints_px[1][0] - x_end) <= 2.0 and abs(det.endpoints_px[1][1] - 300) <= 1.0
-
-
-def test_a_simulated_wide_gap_between_rounded_corners_is_found(
-        tmp_path_factory: pytest.TempPathFactory) -> None:
-    # Wide medium tuning 10029, view 0: a gap band of 9 px ending between rounded corners,
-    # refused as a line fading out inside a sheet while bands of 8 px or more were not read off
-    # the wedge.
-    from rendered_cases import rendered_view
-
-    from bench.detect_score import score_view
-
-    img, truth = rendered_view(tmp_path_factory.mktemp("cache"),
-                               ("wide", "medium", "tuning", 10029), 0)
-    det = detect_seam(img)
-    assert score_view(det.points_px, truth, list(det.end_kinds))["result"] == "found"
 
 
 def test_a_simulated_joint_between_rounded_corners_on_a_grey_table_is_found(
