@@ -215,7 +215,11 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
                           "(a pen line or scratch, or one plate's outer edge: not a joint)")
         c.refused = OPEN_END
         # Seen to a border at one end, it may be a faint joint whose other end is lost: it is not
-        # returned, but a seam only a little stronger than it is not sure either.
+        # returned, but a seam only a little stronger than it is not sure either. (Tried and
+        # reverted, 2026-12-06: no rival when drawn beside a seam whose ends are both read,
+        # seam_decision.fades_beside in dc626fd: extended tuning +7 found, no more wrong; held-out
+        # +2 found, +1 wrong, medium 10090 view 0 returned at 1.0 with its end 10 px early. The
+        # rival was what refused the seam's own misread end.)
         c.rival = where == "one end"
         c.score = length * c.depth * c.valid_frac if c.rival else 0.0
         return

@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 
 from controller.errors import AmbiguousSeam, SeamNotFound
 from controller.vision.seam_coarse import nearest_px
-from controller.vision.seam_params import F64, OPEN_END, Candidate, DetectParams, Tee, runs_of
+from controller.vision.seam_params import F64, Candidate, DetectParams, Tee, runs_of
 
 JOINT_END = "joint_end"
 IMAGE_BORDER = "image_border"
@@ -63,8 +63,7 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
         best = stem
     tee = next((t for t in tees or [] if t.stem is best), None)
     not_rivals = [best] + ([] if tee is None else [tee.bar, *tee.along])
-    rivals = sorted([c for c in good + [c for c in cands if c.why_rejected and c.rival
-                                        and not fades_beside(c, best, p)]
+    rivals = sorted([c for c in good + [c for c in cands if c.why_rejected and c.rival]
                      if not any(c is k for k in not_rivals)],
                     key=lambda c: -c.score)
     second = rivals[0] if rivals else None
@@ -132,65 +131,6 @@ def _mark_too_wide(cands: list[Candidate], p: DetectParams) -> None:
 BESIDE_SCORE = 0.4
 #: Beside: this share of the line's points lies 10 px to ``pattern_offset_px`` from the best.
 BESIDE_SHARE = 0.7
-
-
-#: A line beside the best one runs on this far (px) past an end of the best read as a sheet
-#: border at most, for that border to stand: a line drawn on a sheet lies where the sheet is.
-PAST_BORDER_PX = 20.0
-
-
-def fades_beside(c: Candidate, best: Candidate, p: DetectParams) -> bool:
-    """Whether ``c``, a line fading out inside a sheet, is a line drawn beside ``best``: no rival.
-
-    A line seen to a border at one end and fading out inside a sheet at the other is refused,
-    but stays a rival (``c.rival``): it may be a faint joint whose other end was lost. Beside a
-    seam whose ends are both read (a sheet border or the image border, neither unsure), the
-    joint and a pen or soapstone line drawn parallel to it are told apart by how they end
-    (issue 12: a line drawn on a sheet ends inside it, a joint at the sheets' borders). So ``c``
-    is no rival when all of these hold (full-image px):
-
-    - ``best`` is a profile candidate (not a valley path) with a dark band under
-      ``WIDE_KNEE x max_gap_px`` (6 px at the defaults; a wider band may hold a shadow whose
-      edge line is the pen line's twin, and its middle is the less sure: see width_factor);
-    - ``BESIDE_SHARE`` of ``c``'s points lie 10 px to ``p.pattern_offset_px`` from ``best``
-      (beside it, as a fitter's offset line is, not on it);
-    - each of ``c``'s open ends lies within ``p.pattern_offset_px`` of ``best`` and beside a
-      point of it other than its ends (the sheet goes on around the end, the joint beside it);
-    - ``c`` does not run on more than :data:`PAST_BORDER_PX` past an end of ``best`` read as
-      a sheet border (where it does, that border is not where the sheets end: the line is
-      drawn on a sheet there, or ``best`` is another line, such as a ground strip's edge).
-
-    On the extended tuning part (1000 views, 2026-12-06) this took 7 views from refused to
-    found and returned no wrong seam; without the band and border conditions it returned 6
-    and 11 more wrong seams (a step shadow's band, an end read in the middle of a sheet).
-    """
-    if (c.refused != OPEN_END or best.way != "profiles" or best.points is None
-            or any(k not in ("sheet border", "image border") for k in best.end_kinds)):
-        return False
-    pts = c.points if c.points is not None else c.polyline
-    if pts is None or len(pts) < 2 or best.width is None or not len(best.width):
-        return False
-    if float(np.median(best.width)) >= WIDE_KNEE * p.max_gap_px:
-        return False
-    d, _ = nearest_px(pts, best.points)
-    if float(np.mean((d >= 10.0) & (d <= p.pattern_offset_px))) < BESIDE_SHARE:
-        return False
-    ref = best.points
-    for k in range(2):
-        if best.end_kinds[k] != "sheet border":
-            continue
-        end, inner = (ref[0], ref[min(10, len(ref) - 1)]) if k == 0 else (ref[-1],
-                                                                   ref[max(0, len(ref) - 11)])
-        out = (end - inner) / (np.linalg.norm(end - inner) + 1e-12)
-        if np.any((pts - end) @ out > PAST_BORDER_PX):
-            return False
-    for k, e in ((0, pts[0]), (1, pts[-1])):
-        if c.end_kinds[k] != "open":
-            continue
-        j = int(np.argmin(np.linalg.norm(ref - e, axis=1)))
-        if np.linalg.norm(ref[j] - e) > p.pattern_offset_px or j in (0, len(ref) - 1):
-            return False
-    return True
 
 
 def _line_beside(best: Candidate, others: list[Candidate],
