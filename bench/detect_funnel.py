@@ -13,7 +13,9 @@ grid's, the valley paths'). A candidate *is the joint* when its points lie withi
 refused view is put in the first stage where the joint was a candidate, with that candidate's
 verdict (its reason with the numbers taken out; or, where it passed every check, "too weak" when
 even without a rival its confidence is under ``min_confidence``, else "refused for a rival");
-or "no candidate on the joint". Prints the table (markdown) and writes the rows as JSON.
+or "no candidate on the joint". Where that candidate has ends read as open (fading out inside a
+sheet), how far short of the true end each lies, along the truth (:func:`open_ends`), binned by
+the true end's kind. Prints the tables (markdown) and writes the rows as JSON.
 
 The default part is ``tuning``, as for ``bench.detect_gallery``: reading the held-out part's
 failures one by one is how a rule gets fitted to it.
@@ -69,13 +71,44 @@ def where_lost(stages: list[list[Candidate]], truth_px: NDArray[np.float64]) -> 
     full-image px (the detection was run without a region of interest). The second holds the
     first's candidates again with the finer grid's added.
     """
+    found = joint_candidate(stages, truth_px)
+    if found is None:
+        return "none", "no candidate on the joint"
+    return found[0], _verdict(found[1])
+
+
+def joint_candidate(stages: list[list[Candidate]], truth_px: NDArray[np.float64]
+                    ) -> tuple[str, Candidate] | None:
+    """The first stage (:data:`STAGES`) whose candidates include the joint's line, and the
+    strongest such candidate; None when no stage has one."""
     for name, cands in zip(STAGES, stages, strict=False):
         joint = [c for c in cands
                  if on_joint(c.points if c.points is not None else c.polyline, truth_px)]
         if joint:
-            c = max(joint, key=lambda k: k.score)
-            return name, _verdict(c)
-    return "none", "no candidate on the joint"
+            return name, max(joint, key=lambda k: k.score)
+    return None
+
+
+#: Bins (px, upper bounds) of how far an open end lies short of the true end, along the truth.
+SHORT_BINS = (8.0, 20.0, 50.0, 150.0)
+
+
+def open_ends(c: Candidate, truth_px: NDArray[np.float64], truth_kinds: list[str]
+              ) -> list[dict[str, Any]]:
+    """Each end of the joint's candidate ``c`` read as open (fading out inside a sheet): how far
+    short of the true end nearer it it lies (px along the true centreline, from the end's
+    nearest point on it) and that end's kind (``joint_end`` or ``image_border``)."""
+    pts = c.points if c.points is not None else c.polyline
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(truth_px, axis=0), axis=1))])
+    out = []
+    for k, e in ((0, pts[0]), (1, pts[-1])):
+        if c.end_kinds[k] != "open":
+            continue
+        j = int(np.argmin(np.linalg.norm(truth_px - e, axis=1)))
+        te = 0 if s[j] <= s[-1] / 2 else 1
+        short = s[j] if te == 0 else s[-1] - s[j]
+        out.append({"short_px": round(float(short), 1), "truth_kind": truth_kinds[te]})
+    return out
 
 
 def _verdict(c: Candidate) -> str:
@@ -100,10 +133,14 @@ def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
         try:
             detect_seam(img, camera=cam, trace=stages)
         except SeamguideError:
-            stage, verdict = where_lost(stages, np.asarray(truth["seam_px"], np.float64))
+            tp = np.asarray(truth["seam_px"], np.float64)
+            stage, verdict = where_lost(stages, tp)
+            found = joint_candidate(stages, tp)
+            ends = [] if found is None else open_ends(found[1], tp, truth["end_kinds"])
         else:
-            stage, verdict = "returned", ""
-        rows.append({"case": list(case), "view": i, "stage": stage, "verdict": verdict})
+            stage, verdict, ends = "returned", "", []
+        rows.append({"case": list(case), "view": i, "stage": stage, "verdict": verdict,
+                     "family": truth["family"], "open_ends": ends})
     return rows
 
 
@@ -117,6 +154,19 @@ def table(rows: list[dict[str, Any]]) -> str:
         ex = [f"{r['case'][1]} {r['case'][3]} v{r['view']}" for r in refused
               if (r["stage"], r["verdict"]) == (stage, verdict)][:3]
         out.append(f"| {stage} | {verdict} | {n} | {', '.join(ex)} |")
+    ends = [e for r in refused for e in r.get("open_ends", [])]
+    if ends:
+        heads = [f"<= {SHORT_BINS[0]:.0f} px"] + [
+            f"{a:.0f}-{b:.0f} px" for a, b in zip(SHORT_BINS, SHORT_BINS[1:], strict=False)] + [
+            f"> {SHORT_BINS[-1]:.0f} px"]
+        out += ["", "Ends of the joint's line read as open (fading out inside a sheet), by how far "
+                "short of the true end they lie (along it):", "",
+                "| true end | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|"]
+        for kind in sorted({e["truth_kind"] for e in ends}):
+            n = np.bincount(np.searchsorted(SHORT_BINS, [e["short_px"] for e in ends
+                                                         if e["truth_kind"] == kind]),
+                            minlength=len(heads))
+            out.append(f"| {kind} | " + " | ".join(str(int(x)) for x in n) + " |")
     return "\n".join(out)
 
 

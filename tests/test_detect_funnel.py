@@ -70,3 +70,26 @@ def test_no_cached_renders_is_said_with_what_to_run(monkeypatch, tmp_path, capsy
     err = capsys.readouterr().err
     assert "no cached renders" in err and "bench.bench_detect --render-only" in err
     assert not (tmp_path / "f.json").exists()
+
+
+def test_an_open_end_says_how_far_short_of_the_true_end_it_lies() -> None:
+    from bench.detect_funnel import open_ends
+
+    # The joint runs x = 0..1000 (a sheet border at 0, the image border at 1000); its line stops
+    # 30 px short of the border at 0 and 200 px short of the image border, both read as open.
+    c = _cand(300.0)
+    c.points = np.column_stack([np.linspace(30, 800, 100), np.full(100, 300.0)])
+    c.end_kinds = ("open", "open")
+    ends = open_ends(c, TRUTH, ["joint_end", "image_border"])
+    assert ends == [{"short_px": 28.0, "truth_kind": "joint_end"},
+                    {"short_px": 200.0, "truth_kind": "image_border"}]
+    c.end_kinds = ("sheet border", "open")
+    assert open_ends(c, TRUTH, ["joint_end", "image_border"]) == [ends[1]]
+    rows = [{"case": ["wide", "easy", "tuning", 7], "view": 0, "stage": "first way",
+             "verdict": "x", "open_ends": ends},
+            {"case": ["wide", "easy", "tuning", 8], "view": 0, "stage": "first way",
+             "verdict": "x", "open_ends": [{"short_px": 8.0, "truth_kind": "joint_end"}]}]
+    md = table(rows)
+    assert "| true end | <= 8 px | 8-20 px | 20-50 px | 50-150 px | > 150 px |" in md
+    assert "| joint_end | 1 | 0 | 1 | 0 | 0 |" in md
+    assert "| image_border | 0 | 0 | 0 | 0 | 1 |" in md
