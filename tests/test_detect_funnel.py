@@ -76,7 +76,8 @@ def test_an_open_end_says_how_far_short_of_the_true_end_it_lies() -> None:
     from bench.detect_funnel import open_ends
 
     # The joint runs x = 0..1000 (a sheet border at 0, the image border at 1000); its line stops
-    # 30 px short of the border at 0 and 200 px short of the image border, both read as open.
+    # 30 px short of the border at 0 (28 px: read at the nearest true point, every 4 px) and
+    # 200 px short of the image border, both read as open.
     c = _cand(300.0)
     c.points = np.column_stack([np.linspace(30, 800, 100), np.full(100, 300.0)])
     c.end_kinds = ("open", "open")
