@@ -381,6 +381,22 @@ def test_a_line_running_beside_the_seam_makes_it_ambiguous(offset_px, score, amb
         assert choose(cands, DetectParams(), {}, (0, 0))[0] is cands[0]
 
 
+def test_a_best_candidate_of_score_zero_with_a_rival_is_ambiguous_not_a_crash() -> None:
+    # Found by an experiment that let such a valley path through (2026-12-06): choose() divided
+    # the rival's score by the best's and raised ZeroDivisionError instead of a refusal.
+    from controller.errors import AmbiguousSeam
+    from controller.vision.seam_decision import choose
+    from controller.vision.seam_params import Candidate
+
+    P = np.column_stack([np.linspace(0, 1500, 300), np.full(300, 800.0)])
+    best = Candidate(P, 0.0, 1500.0, points=P, width=np.full(300, 4.0), depth=0.5,
+                     valid_frac=1.0, score=0.0, end_kinds=("image border", "image border"))
+    rival = Candidate(P + [0.0, 400.0], 0.0, 1500.0, points=P + [0.0, 400.0], score=0.0,
+                      why_rejected="dark line fades out inside the sheet at one end", rival=True)
+    with pytest.raises(AmbiguousSeam, match="similar strength"):
+        choose([best, rival], DetectParams(), {}, (0, 0))
+
+
 def test_overlay_text_is_wrapped_not_cut() -> None:
     from controller.vision.seam_overlay import MAX_TEXT_LINES, overlay_text, text_lines
 

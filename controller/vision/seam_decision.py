@@ -67,7 +67,9 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
                      if not any(c is k for k in not_rivals)],
                     key=lambda c: -c.score)
     second = rivals[0] if rivals else None
-    ratio = (second.score / best.score) if second is not None else 0.0
+    # A best of score 0 (a measure of the candidate at 0: none of the detector's ways passes
+    # such a candidate today) has every rival as strong as itself, not a division by zero.
+    ratio = (0.0 if second is None else second.score / best.score if best.score > 0 else 1.0)
     if second is not None and ratio >= p.ambiguity_ratio:
         what = ("two seam candidates of similar strength" if ratio <= 1.0 else
                 "a line stronger than the best seam candidate, rejected for how it ends or "
