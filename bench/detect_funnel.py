@@ -15,7 +15,8 @@ verdict (its reason with the numbers taken out; or, where it passed every check,
 even without a rival its confidence is under ``min_confidence``, else "refused for a rival");
 or "no candidate on the joint". Where that candidate has ends read as open (fading out inside a
 sheet), how far short of the true end each lies, along the truth (:func:`open_ends`), binned by
-the true end's kind. Prints the tables (markdown) and writes the rows as JSON.
+the true end's kind. Prints the tables (markdown) and writes the rows (with each view's look
+family) as JSON.
 
 The default part is ``tuning``, as for ``bench.detect_gallery``: reading the held-out part's
 failures one by one is how a rule gets fitted to it.
@@ -71,7 +72,11 @@ def where_lost(stages: list[list[Candidate]], truth_px: NDArray[np.float64]) -> 
     full-image px (the detection was run without a region of interest). The second holds the
     first's candidates again with the finer grid's added.
     """
-    found = joint_candidate(stages, truth_px)
+    return _lost_at(joint_candidate(stages, truth_px))
+
+
+def _lost_at(found: tuple[str, Candidate] | None) -> tuple[str, str]:
+    """(stage, verdict) from :func:`joint_candidate`'s answer."""
     if found is None:
         return "none", "no candidate on the joint"
     return found[0], _verdict(found[1])
@@ -134,8 +139,8 @@ def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
             detect_seam(img, camera=cam, trace=stages)
         except SeamguideError:
             tp = np.asarray(truth["seam_px"], np.float64)
-            stage, verdict = where_lost(stages, tp)
-            found = joint_candidate(stages, tp)
+            found = joint_candidate(stages, tp)  # where_lost's search, once for both uses
+            stage, verdict = _lost_at(found)
             ends = [] if found is None else open_ends(found[1], tp, truth["end_kinds"])
         else:
             stage, verdict, ends = "returned", "", []
