@@ -42,11 +42,11 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     """
     c.band_points, c.band_width = None, None
     pts, nrm = resample(c.polyline, p.step_px, extend=24.0)
-    fit = fit_at(grey, lut, pts, nrm, p, shoulders=True)
+    fit = fit_at(grey, lut, pts, nrm, p)
     # The coarse search loses a faint stretch of the gap (thin, blurred, low contrast); the
     # profiles still see it, so follow it on at full resolution until they stop fitting.
-    fit = track_on(grey, lut, fit, p, at_end=True, shoulders=True)
-    fit = track_on(grey, lut, fit, p, at_end=False, shoulders=True)
+    fit = track_on(grey, lut, fit, p, at_end=True)
+    fit = track_on(grey, lut, fit, p, at_end=False)
     # A shadow band beside the gap widens the dark band to one side: the gap is its darker core.
     band_fit = fit
     fit, shadow = split_shadow(fit, p)

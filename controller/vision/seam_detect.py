@@ -199,15 +199,15 @@ def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
     return _detection(best, ratio, conf, reasons, cands, x0, y0)
 
 
-def faded_lines(cands: list[Candidate]) -> list[tuple[F64, tuple[bool, bool]]]:
+def faded_lines(cands: list[Candidate]) -> list[F64]:
     """The centrelines (px) of ``cands`` seen to fade out inside a sheet at an end.
 
     Also where the other end stopped at a patch with the line going on beyond it: that end
     says nothing of what the line is, the open one does (a pen line, a scratch). A valley path
     along one of them is not a seam (:func:`controller.vision.seam_robust.robust_candidates`).
     """
-    return [(c.points, (c.end_kinds[0] == "open", c.end_kinds[1] == "open")) for c in cands
-            if c.points is not None and (c.refused == OPEN_END or "open" in c.end_kinds)]
+    return [c.points for c in cands if c.points is not None
+            and (c.refused == OPEN_END or "open" in c.end_kinds)]
 
 
 def _refined(sub: NDArray[np.uint8], lut: F64, cands: list[Candidate], table: TableCheck,

@@ -155,7 +155,7 @@ def levenberg_marquardt(x: F64, prof: F64, prm: F64, model: Any, bound: Any,
 
 
 def fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParams,
-           half_width: float | None = None, shoulders: bool = False) -> dict[str, Any]:
+           half_width: float | None = None) -> dict[str, Any]:
     """Fit the two-edge gap model to profiles across the curve at ``pts`` along normals ``nrm``.
 
     Per profile: ``centre`` (px), ``width`` (px), relative ``depth``, ``rms`` and ``contrast``
@@ -169,52 +169,23 @@ def fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParam
     V = pts[:, 1:2] + nrm[:, 1:2] * x[None, :]
     prof, inside = bilinear(grey, lut, U, V)
     prm, rms = _fit_profiles(x, prof, p.fit_iterations)
-    H, W = grey.shape
-    centre_in = inside[:, inside.shape[1] // 2]
-    valid, depth, centre = _judge(prm, rms, pts, nrm, p, (H, W), centre_in)
-    hw2 = _NARROW
-    if shoulders and hw2 > 0 and hw2 < hw and not valid.all():
-        bad = np.flatnonzero(~valid)
-        m = np.abs(x) <= hw2
-        prm2, rms2 = _fit_profiles(x[m], prof[bad][:, m], p.fit_iterations)
-        v2, d2, c2 = _judge(prm2, rms2, pts[bad], nrm[bad], p, (H, W), centre_in[bad])
-        far = prof[bad]
-        lo = np.median(far[:, x < -(hw2 + 1)], axis=1)
-        hi = np.median(far[:, x > hw2 + 1], axis=1)
-        v2 &= (prm2[:, 0] > lo * _SHOULDER) & (prm2[:, 1] > hi * _SHOULDER)
-        take = bad[v2]
-        prm[take], rms[take], valid[take] = prm2[v2], rms2[v2], True
-        depth[take], centre[take] = d2[v2], c2[v2]
-    L, R, F, cc, w, s = prm.T
-    side = np.minimum(L, R)
-    return {"valid": valid, "centre": centre, "depth": depth, "width": w, "rms": rms,
-            "contrast": side - F, "left": L, "right": R, "normal": nrm, "params": prm,
-            "profiles": prof}
-
-
-import os  # noqa: E402  (experiment switch)
-_NARROW = float(os.environ.get("SG_NARROW", "6"))
-_SHOULDER = float(os.environ.get("SG_SHOULDER", "1.1"))
-
-
-def _judge(prm: F64, rms: F64, pts: F64, nrm: F64, p: DetectParams, shape: tuple[int, int],
-           centre_in: NDArray[np.bool_]) -> tuple[NDArray[np.bool_], F64, F64]:
     L, R, F, cc, w, s = prm.T
     side = np.minimum(L, R)
     depth = (side - np.maximum(F, 0.0)) / np.maximum(side, 1e-6)
-    H, W = shape
+    H, W = grey.shape
     centre = pts + nrm * cc[:, None]
     in_img = ((centre[:, 0] >= -0.5) & (centre[:, 0] <= W - 0.5)
               & (centre[:, 1] >= -0.5) & (centre[:, 1] <= H - 0.5))
     valid = ((depth > p.min_profile_depth) & (np.abs(cc) < 8.0) & (w > 0.4)
              & (w < p.max_gap_px) & (s < 4.0) & (rms < 0.35 * (side - F) + 0.004) & in_img
-             & centre_in)
-    return valid, depth, centre
+             & inside[:, inside.shape[1] // 2])
+    return {"valid": valid, "centre": centre, "depth": depth, "width": w, "rms": rms,
+            "contrast": side - F, "left": L, "right": R, "normal": nrm, "params": prm,
+            "profiles": prof}
 
 
 def track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectParams,
-             at_end: bool, chunk: int = 8, max_px: float = 4000.0,
-             shoulders: bool = False) -> dict[str, Any]:
+             at_end: bool, chunk: int = 8, max_px: float = 4000.0) -> dict[str, Any]:
     """Extend ``fit`` (from :func:`fit_at`) past one end while the gap profiles keep fitting.
 
     From the last good centres a quadratic over the sample index predicts the next ``chunk``
@@ -239,7 +210,7 @@ def track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectPa
         der = np.column_stack([np.polyval(np.polyder(coef[:, k]), tq) for k in range(2)])
         der /= np.linalg.norm(der, axis=1, keepdims=True) + 1e-12
         nrm = np.column_stack([-der[:, 1], der[:, 0]])
-        new = fit_at(grey, lut, pts, nrm, p, shoulders=shoulders)
+        new = fit_at(grey, lut, pts, nrm, p)
         fit = {k: np.concatenate([fit[k], new[k]]) for k in keys}
         n_steps += chunk
     if not at_end:

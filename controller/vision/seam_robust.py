@@ -46,8 +46,7 @@ MIN_SUPPORT = 0.65  # share of a path with a valley for it to be a gap (the rest
 
 
 def robust_candidates(grey: NDArray[np.uint8], lut: F64, p: DetectParams, max_paths: int = 3,
-                      not_lines: list[tuple[F64, tuple[bool, bool]]] | None = None
-                      ) -> list[Candidate]:
+                      not_lines: list[F64] | None = None) -> list[Candidate]:
     """Seam candidates from whole-image valley paths, measured and with their ends judged.
 
     ``not_lines``: polylines (full-resolution px) already seen to fade out inside a sheet (pen
@@ -76,47 +75,12 @@ def robust_candidates(grey: NDArray[np.uint8], lut: F64, p: DetectParams, max_pa
             # line twice is neither a rival to itself nor a second chance for a pen line.
             continue
         if (not c.why_rejected and c.points is not None
-                and any(_same_line(q, c.points) and not (_PAST and goes_on_past(c, q, o))
-                        for q, o in not_lines or [])):
+                and any(_same_line(q, c.points) for q in not_lines or [])):
             c.why_rejected = ("valley path along a dark line that fades out inside a sheet (a "
                               "pen or soapstone line, a scratch: not a joint)")
             c.rival = True
         out.append(c)
     return out
-
-
-import os  # noqa: E402
-_PAST = os.environ.get("SG_PAST", "1") == "1"
-PAST_PX = 120.0  # how far the gap must be seen going on past a line's open end
-
-
-def goes_on_past(path: Candidate, line: F64, open_ends: tuple[bool, bool],
-                 tol: float = 12.0) -> bool:
-    """Whether ``path`` (a measured valley path) is seen going on past each open end of ``line``
-    (full-resolution px, ends ``open_ends``): along the path, beyond the end, the gap measured on
-    most of :data:`PAST_PX`. Then the line was lost there by the profile model, not seen to
-    fade out (a ragged gap, spatter)."""
-    assert path.points is not None and path.bridged is not None
-    if not any(open_ends):
-        return False
-    P, seen = path.points, ~path.bridged
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
-    for end, is_open in zip((line[0], line[-1]), open_ends):
-        if not is_open:
-            continue
-        d = np.linalg.norm(P - end, axis=1)
-        k = int(np.argmin(d))
-        if d[k] > tol:
-            return False
-        inner = line[len(line) // 2]
-        # Beyond: the direction along the path away from the line's middle.
-        fwd = (np.linalg.norm(P[min(k + 5, len(P) - 1)] - inner)
-               > np.linalg.norm(P[max(k - 5, 0)] - inner))
-        sel = (s > s[k]) & (s <= s[k] + PAST_PX) if fwd else (s < s[k]) & (s >= s[k] - PAST_PX)
-        span = np.ptp(s[sel]) if sel.any() else 0.0
-        if span < 0.8 * PAST_PX or np.mean(seen[sel]) < 0.8:
-            return False
-    return True
 
 
 def _same_line(a: F64, b: F64, tol: float = 12.0) -> bool:
