@@ -150,15 +150,20 @@ def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
 
 
 def table(rows: list[dict[str, Any]]) -> str:
-    """Markdown: refused views per (stage, verdict), most first, with up to 3 examples."""
+    """Markdown: refused views per (stage, verdict), most first, by look family (the rows'
+    ``family``), with up to 3 examples."""
     refused = [r for r in rows if r["stage"] != "returned"]
     count = collections.Counter((r["stage"], r["verdict"]) for r in refused)
+    looks = sorted({r.get("family", "?") for r in refused})
     out = [f"{len(refused)} of {len(rows)} views refused; where the joint was lost:", "",
-           "| stage | verdict on the joint's line | views | e.g. |", "|---|---|---|---|"]
+           "| stage | verdict on the joint's line | views | " + " | ".join(looks) + " | e.g. |",
+           "|---" * (4 + len(looks)) + "|"]
     for (stage, verdict), n in count.most_common():
-        ex = [f"{r['case'][1]} {r['case'][3]} v{r['view']}" for r in refused
-              if (r["stage"], r["verdict"]) == (stage, verdict)][:3]
-        out.append(f"| {stage} | {verdict} | {n} | {', '.join(ex)} |")
+        these = [r for r in refused if (r["stage"], r["verdict"]) == (stage, verdict)]
+        by_look = collections.Counter(r.get("family", "?") for r in these)
+        ex = [f"{r['case'][1]} {r['case'][3]} v{r['view']}" for r in these][:3]
+        out.append(f"| {stage} | {verdict} | {n} | "
+                   + " | ".join(str(by_look[k]) for k in looks) + f" | {', '.join(ex)} |")
     ends = [e for r in refused for e in r.get("open_ends", [])]
     if ends:
         heads = [f"<= {SHORT_BINS[0]:.0f} px"] + [

@@ -40,10 +40,17 @@ def test_the_first_stage_with_the_joint_names_the_verdict_without_its_numbers() 
     assert where_lost([[pen, strong]], TRUTH) == (
         "first way", "passed, too weak (an end read as unsure)")
     rows = [{"case": ["wide", "easy", "tuning", 7], "view": 0, "stage": "first way",
-             "verdict": "x"}, {"case": ["wide", "easy", "tuning", 7], "view": 1,
-                               "stage": "returned", "verdict": ""}]
+             "verdict": "x", "family": "shop"},
+            {"case": ["wide", "easy", "tuning", 7], "view": 1, "stage": "returned",
+             "verdict": "", "family": "shop"},
+            {"case": ["wide", "easy", "tuning", 8], "view": 0, "stage": "first way",
+             "verdict": "x", "family": "plain"},
+            {"case": ["wide", "easy", "tuning", 9], "view": 1, "stage": "first way",
+             "verdict": "x", "family": "plain"}]
     md = table(rows)
-    assert "1 of 2 views refused" in md and "| first way | x | 1 | easy 7 v0 |" in md
+    assert "3 of 4 views refused" in md
+    assert "| stage | verdict on the joint's line | views | plain | shop | e.g. |" in md
+    assert "| first way | x | 3 | 2 | 1 | easy 7 v0, easy 8 v0, easy 9 v1 |" in md
 
 
 def test_the_detector_hands_over_every_list_it_chose_from() -> None:
