@@ -102,8 +102,12 @@ def open_ends(c: Candidate, truth_px: NDArray[np.float64], truth_kinds: list[str
               ) -> list[dict[str, Any]]:
     """Each end of the joint's candidate ``c`` read as open (fading out inside a sheet): how far
     short of the true end nearer it it lies (px along the true centreline, from the end's
-    nearest point on it) and that end's kind (``joint_end`` or ``image_border``)."""
-    pts = c.points if c.points is not None else c.polyline
+    nearest point on it) and that end's kind (``joint_end`` or ``image_border``). A candidate
+    refused before its ends were read (no points: no long run of gap profiles, a table's line)
+    has none: its ``end_kinds`` are the unread default."""
+    if c.points is None:
+        return []
+    pts = c.points
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(truth_px, axis=0), axis=1))])
     out = []
     for k, e in ((0, pts[0]), (1, pts[-1])):

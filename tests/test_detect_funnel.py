@@ -93,6 +93,11 @@ def test_an_open_end_says_how_far_short_of_the_true_end_it_lies() -> None:
                     {"short_px": 200.0, "truth_kind": "image_border"}]
     c.end_kinds = ("sheet border", "open")
     assert open_ends(c, TRUTH, ["joint_end", "image_border"]) == [ends[1]]
+    # Refused before its ends were read (no long run of gap profiles): "open" is the default,
+    # not a reading (the eleventh session's table counted them).
+    unread = _cand(300.0, why="candidate of 1000 px has no long run of gap profiles (3 of 9)")
+    unread.points = None
+    assert unread.end_kinds == ("open", "open") and open_ends(unread, TRUTH, ["joint_end"]) == []
     rows = [{"case": ["wide", "easy", "tuning", 7], "view": 0, "stage": "first way",
              "verdict": "x", "open_ends": ends},
             {"case": ["wide", "easy", "tuning", 8], "view": 0, "stage": "first way",
