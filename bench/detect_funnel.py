@@ -15,8 +15,8 @@ verdict (its reason with the numbers taken out; or, where it passed every check,
 even without a rival its confidence is under ``min_confidence``, else "refused for a rival");
 or "no candidate on the joint". Where that candidate has ends read as open (fading out inside a
 sheet), how far short of the true end each lies, along the truth (:func:`open_ends`), binned by
-the true end's kind. Prints the tables (markdown) and writes the rows (with each view's look
-family) as JSON.
+the true end's kind. Prints the tables (markdown; the first counts each verdict by look family)
+and writes the rows (with each view's look family) as JSON.
 
 The default part is ``tuning``, as for ``bench.detect_gallery``: reading the held-out part's
 failures one by one is how a rule gets fitted to it.

@@ -39,11 +39,9 @@ from controller.geometry.camera_model import default_camera
 from controller.vision.seam_border import border_line, side_steps
 from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_ends import end_offset
-from controller.vision.seam_params import Candidate, DetectParams
+from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_wedge import wedge_end
-
-F64 = NDArray[np.float64]
 
 
 def candidate_line(c: Candidate, truth_px: F64) -> str:
