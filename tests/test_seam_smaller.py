@@ -155,3 +155,45 @@ def test_two_readings_are_the_same_seam_only_with_the_same_ends() -> None:
     assert not same_seam(a, _det(line, kinds=("joint_end", "image_border")))
     assert not same_seam(a, _det(line[:-1]))  # an end 50 px short
     assert not same_seam(a, _det([(x, y + 6.0) for x, y in line]))  # beside it: 6 > 20 / 4
+
+
+def test_where_nothing_is_found_shrunk_by_3_two_other_scales_must_agree() -> None:
+    # Wide medium tuning 10093 v0, 10219 v0, 10257 v1, hard 10051 v0 (close-ups): found shrunk
+    # by 2, nothing found shrunk by 3 (the faint gap under the search's thresholds there), the
+    # same seam shrunk by 1.5, 2.5 or 4: refused until 2026-12-06.
+    from controller.vision.seam_smaller import _confirmed
+
+    line = [(float(x), 600.0) for x in range(300, 1301, 50)]
+    full, same, other = _det(line), _det([(x + 2.0, y) for x, y in line]), _det(line[:-1])
+
+    def at(found: dict[float, SeamDetection | None]):  # type: ignore[no-untyped-def]
+        asked: list[float] = []
+
+        def found_at(f: float) -> SeamDetection | None:
+            asked.append(f)
+            return found.get(f)
+
+        return found_at, asked
+
+    found_at, asked = at({3: same})
+    assert _confirmed(full, found_at) == [3.0] and asked == [3]  # found at 3: nothing else asked
+    assert _confirmed(full, at({3: other, 1.5: same, 2.5: same})[0]) == []  # 3 differs: refused
+    assert _confirmed(full, at({1.5: same, 2.5: same})[0]) == [1.5, 2.5]
+    assert _confirmed(full, at({2.5: same, 4.0: same})[0]) == [2.5, 4.0]
+    assert _confirmed(full, at({2.5: same})[0]) == []  # one scale is not enough
+    assert _confirmed(full, at({1.5: same, 2.5: same, 4.0: other})[0]) == []  # one differs
+    assert _confirmed(full, at({})[0]) == []
+
+
+def test_a_faint_close_up_found_at_two_other_scales_is_returned(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    img, truth = rendered_view(tmp_path, ("wide", "medium", "tuning", 10219), 0)
+    assert truth["family"] == "closeup"
+    det = detect_seam(img)
+    assert det.stats["scale"] == 2.0
+    assert score_view(det.points_px, truth, list(det.end_kinds))["result"] == "found"
+    assert "shrunk by 2 and again by 1.5 and 2.5" in det.reasons[0]
+    # Shrunk by 3 nothing is found: without the other scales it is refused.
+    monkeypatch.setattr(seam_smaller, "ALT_CONFIRM", ())
+    with pytest.raises(SeamNotFound):
+        detect_seam(img)

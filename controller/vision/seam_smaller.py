@@ -19,6 +19,9 @@ mean of the pixels it covers), and its seam is kept only where
    the same seam (the same end kinds, each end within :data:`END_AGREE_PX`, the centrelines
    within :data:`CENTRE_AGREE` of the gap's width, median). A reading that moves with the scale
    (an end read at a different corner, a band read on its other side) is not a measurement.
+   Where that search finds no seam at all (a faint gap drops under the search's thresholds at
+   one scale: nothing read there moved), two of the searches shrunk by :data:`ALT_CONFIRM`
+   (1.5, 2.5, 4) must find the same seam and none of them a different one.
 
 The kept seam's centreline is measured again at full size along the shrunk search's line
 (profiles as wide as its gap asks for, a shadow split off as the full-size search does:
@@ -54,6 +57,9 @@ END_AGREE_PX = 8.0  # the two scales' ends agree within this (full-size px)
 CENTRE_AGREE = 0.25  # and their centrelines within this share of the gap's width (median)
 _SIDE_PX = 8.0  # full-size profiles reach this far past the gap's edges
 _MIN_PROFILES = 8  # full-size profiles that must fit the gap to measure it there
+#: Where the search shrunk by CONFIRM finds no seam at all, two of these must find the same seam
+#: and none a different one (extended tuning part: 4 close-ups found, no wrong seam more).
+ALT_CONFIRM = (1.5, 2.5, 4.0)
 
 #: The detector's search on an image: (grey, hint px or None, params, straighten) -> detection.
 Look = Callable[[NDArray[np.uint8], F64 | None, DetectParams, Straighten | None], SeamDetection]
@@ -74,15 +80,40 @@ def smaller_look(grey: NDArray[np.uint8], hint: F64 | None, p: DetectParams, loo
     full = _measured_at_full_size(grey, lut, half, p)
     if full is None or full.stats["edge_blur_px"] < MIN_BLUR_PX:
         return None
-    other = _found_at(grey, CONFIRM, hint, p, look, straighten)
-    if other is None or not same_seam(full, other):
+    confirmed = _confirmed(full, lambda f: _found_at(grey, f, hint, p, look, straighten))
+    if not confirmed:
         return None
     # The search's own reasons count px of the image it searched: said so before them.
-    reason = (f"found on the image shrunk by {SCALE} and again by {CONFIRM}: the gap "
+    again = " and ".join(f"{f:g}" for f in confirmed)
+    reason = (f"found on the image shrunk by {SCALE} and again by {again}: the gap "
               f"({full.gap_width_px:.0f} px, edges blurred by {full.stats['edge_blur_px']:.1f} px)"
               " is wider and softer than the full-size search measures; the lengths and widths "
               f"below are px of the image shrunk by {SCALE}")
     return replace(full, reasons=[reason, *full.reasons])
+
+
+def _confirmed(full: SeamDetection, found_at: Callable[[float], SeamDetection | None]
+               ) -> list[float]:
+    """The shrink factors at which the same seam as ``full`` is found (module doc, point 2).
+
+    [:data:`CONFIRM`], or two or three of :data:`ALT_CONFIRM` where nothing is found at
+    :data:`CONFIRM`; [] where it does not hold. ``found_at(f)``: the seam found shrunk by ``f``
+    (px of the full image) or None.
+    """
+    other = found_at(CONFIRM)
+    if other is not None:
+        return [float(CONFIRM)] if same_seam(full, other) else []
+    # Nothing found there is no reading that moved with the scale (a faint close-up gap drops
+    # under the search's thresholds at one scale): two other scales must agree, none differ.
+    agree: list[float] = []
+    for f in ALT_CONFIRM:
+        o = found_at(f)
+        if o is None:
+            continue
+        if not same_seam(full, o):
+            return []
+        agree.append(f)
+    return agree if len(agree) >= 2 else []
 
 
 def same_seam(a: SeamDetection, b: SeamDetection) -> bool:
