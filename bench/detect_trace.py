@@ -36,9 +36,9 @@ from bench.detect_funnel import STAGES, joint_candidate, on_joint
 from bench.detect_score import dist_to_polyline
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
-from controller.vision.seam_border import border_line, side_steps
+from controller.vision.seam_border import border_line
 from controller.vision.seam_detect import detect_seam
-from controller.vision.seam_ends import end_offset
+from controller.vision.seam_ends import end_lines, end_offset
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import linear_lut
 from controller.vision.seam_wedge import wedge_end
@@ -48,7 +48,7 @@ def candidate_line(c: Candidate, truth_px: F64) -> str:
     """One line about candidate ``c`` against the true centreline (px)."""
     P = c.points if c.points is not None else c.polyline
     md = float(np.median(dist_to_polyline(P, truth_px))) if len(P) > 1 else float("nan")
-    mark = "J" if on_joint(c.points, truth_px) else " "
+    mark = "J" if on_joint(P, truth_px) else " "  # as joint_candidate says it
     return (f"{mark} {c.way:<11.11} {c.length_px:5.0f} px  score {c.score:7.1f}  depth "
             f"{c.depth:.2f}  good {c.valid_frac:.2f}  ends {c.end_kinds[0]} / {c.end_kinds[1]}  "
             f"{md:4.0f} px off  {np.round(P[0]).astype(int).tolist()} -> "
@@ -72,13 +72,8 @@ def end_reading(grey: NDArray[np.uint8], c: Candidate, end: int, p: DetectParams
     tang = tang / (np.linalg.norm(tang) + 1e-12)
     w = float(np.median(c.width)) if c.width is not None and len(c.width) else 3.0
     lut = linear_lut(p.gamma)
-    nrm = np.array([-tang[1], tang[0]])
-    ks = np.arange(-28.0, 20.01, 0.5)  # as seam_ends reads them
-    q = e_pt + np.outer(ks, tang)
-    delta = w / 2 + 2.5
-    offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
-    steps = [[k for k, lasting in side_steps(grey, lut, q + o * nrm, ks) if lasting]
-             for o in offs]
+    offs, marked = end_lines(grey, lut, e_pt, tang, w)
+    steps = [[k for k, lasting in m if lasting] for m in marked]
     line = border_line(offs, steps, w)
     k, kind, _ = end_offset(grey, lut, e_pt, tang, w)
     return {"at_px": e_pt.round(1).tolist(), "width_px": round(w, 1),

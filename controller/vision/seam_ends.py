@@ -184,6 +184,22 @@ def darker_than_sheets(beside: F64, sheet_level: float) -> bool:
     return bool(np.percentile(beside, 90) < 0.5 * sheet_level)
 
 
+_LINE_KS = np.arange(-28.0, 20.01, 0.5)  # where an end's lines are read: px along from it
+
+
+def end_lines(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float
+              ) -> tuple[tuple[float, ...], list[list[tuple[float, bool]]]]:
+    """The five lines an end is read on (:func:`_end_at`): offsets across (px), steps on each.
+
+    Two each side of a gap ``w_med`` px wide and its centreline; steps as ``side_steps`` gives.
+    """
+    nrm = np.array([-tang[1], tang[0]])
+    q = e_pt + np.outer(_LINE_KS, tang)
+    delta = w_med / 2 + 2.5
+    offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
+    return offs, [side_steps(grey, lut, q + o * nrm, _LINE_KS) for o in offs]
+
+
 def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float,
             chord: F64 | None = None, sheets_only: bool = False
             ) -> tuple[float, str, F64 | None, bool]:
@@ -216,13 +232,8 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
     (:func:`controller.vision.seam_wedge.wedge_end`), the end is read off the wedge instead.
     """
     H, W = grey.shape
-    nrm = np.array([-tang[1], tang[0]])
-    ks = np.arange(-28.0, 20.01, 0.5)
-    q = e_pt + np.outer(ks, tang)
-    delta = w_med / 2 + 2.5
-    offs = (-2 * delta, -delta, 0.0, delta, 2 * delta)
     # Each line read once: its lasting steps for the border, all of them for a band before it.
-    marked = [side_steps(grey, lut, q + o * nrm, ks) for o in offs]
+    offs, marked = end_lines(grey, lut, e_pt, tang, w_med)
     steps = [[k for k, lasting in m if lasting] for m in marked]
     line = border_line(offs, steps, w_med)
     line = _band_before([[k for k, _ in m] for m in marked], offs, w_med, line)
@@ -233,7 +244,7 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
         # The border crosses one side of the line only: one plate turns away, the other side
         # goes on (a plate's outer edge at its corner, a slot's end). Not where a joint ends.
         k_line = None
-    k_border = border_crossing(e_pt, tang, W, H, float(ks[-1]))
+    k_border = border_crossing(e_pt, tang, W, H, float(_LINE_KS[-1]))
     kind = "unsure sheet border" if unsure else "sheet border"
     if k_line is not None:
         k = k_line
