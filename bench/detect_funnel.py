@@ -13,7 +13,9 @@ grid's, the valley paths'). A candidate *is the joint* when its points lie withi
 refused view is put in the first stage where the joint was a candidate, with that candidate's
 verdict (its reason with the numbers taken out; or, where it passed every check, "too weak" when
 even without a rival its confidence is under ``min_confidence``, else "refused for a rival");
-or "no candidate on the joint". Where that candidate has ends read as open (fading out inside a
+or "no candidate on the joint", followed, where a candidate's coarse polyline ran along the joint
+(the search saw it; its refined line went beside it or it was set aside), by that candidate's
+verdict (:func:`coarse_along`). Where that candidate has ends read as open (fading out inside a
 sheet), how far short of the true end each lies, along the truth (:func:`open_ends`), binned by
 the true end's kind. Prints the tables (markdown; the first counts each verdict by look family)
 and writes the rows (with each view's look family) as JSON.
@@ -46,6 +48,10 @@ from controller.vision.seam_params import Candidate, DetectParams
 
 NEAR_PX = 4.0  # median distance (px) of a candidate's points from the true centreline
 COVER_SHARE = 0.5  # share of the true centreline within 6 px of the candidate
+# A coarse polyline (the search grid is 4 px) is along the joint within twice as much: median
+# distance, and the share covered within COARSE_COVER_PX.
+COARSE_NEAR_PX = 8.0
+COARSE_COVER_PX = 10.0
 STAGES = ("first way", "finer grid", "valley paths")
 
 
@@ -72,14 +78,37 @@ def where_lost(stages: list[list[Candidate]], truth_px: NDArray[np.float64]) -> 
     full-image px (the detection was run without a region of interest). The second holds the
     first's candidates again with the finer grid's added.
     """
-    return _lost_at(joint_candidate(stages, truth_px))
+    return _lost_at(joint_candidate(stages, truth_px), stages, truth_px)
 
 
-def _lost_at(found: tuple[str, Candidate] | None) -> tuple[str, str]:
-    """(stage, verdict) from :func:`joint_candidate`'s answer."""
+def _lost_at(found: tuple[str, Candidate] | None, stages: list[list[Candidate]],
+             truth_px: NDArray[np.float64]) -> tuple[str, str]:
+    """(stage, verdict) from :func:`joint_candidate`'s answer; where none is the joint, whether
+    the coarse search had a line along it (:func:`coarse_along`) and that line's verdict."""
     if found is None:
-        return "none", "no candidate on the joint"
+        along = coarse_along(stages, truth_px)
+        if along is None:
+            return "none", "no candidate on the joint"
+        return "none", f"no candidate on the joint; a coarse line along it: {_verdict(along)}"
     return found[0], _verdict(found[1])
+
+
+def coarse_along(stages: list[list[Candidate]], truth_px: NDArray[np.float64]
+                 ) -> Candidate | None:
+    """The strongest candidate whose coarse polyline runs along the joint (:data:`COARSE_NEAR_PX`
+    median, :data:`COVER_SHARE` of it within :data:`COARSE_COVER_PX`) when none is the joint:
+    the coarse search saw the joint there, and what it became (a line refined beside it, a
+    piece, a table line) is that candidate's verdict. None: the coarse search did not see it
+    among the candidates it handed on (``DetectParams.max_candidates``)."""
+    along = []
+    for c in (c for cands in stages for c in cands):
+        if len(c.polyline) < 2 or len(truth_px) < 2:
+            continue
+        d = dist_to_polyline(c.polyline, truth_px)
+        cover = dist_to_polyline(truth_px, c.polyline) < COARSE_COVER_PX
+        if np.median(d) < COARSE_NEAR_PX and np.mean(cover) >= COVER_SHARE:
+            along.append(c)
+    return max(along, key=lambda k: k.coarse_score) if along else None
 
 
 def joint_candidate(stages: list[list[Candidate]], truth_px: NDArray[np.float64]
@@ -144,7 +173,7 @@ def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
         except SeamguideError:
             tp = np.asarray(truth["seam_px"], np.float64)
             found = joint_candidate(stages, tp)  # where_lost's search, once for both uses
-            stage, verdict = _lost_at(found)
+            stage, verdict = _lost_at(found, stages, tp)
             ends = [] if found is None else open_ends(found[1], tp, truth["end_kinds"])
         else:
             stage, verdict, ends = "returned", "", []

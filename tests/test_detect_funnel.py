@@ -30,6 +30,13 @@ def test_the_first_stage_with_the_joint_names_the_verdict_without_its_numbers() 
     piece = _cand(300.0, x1=300.0, why="gap run only 300 px long (< 300)")
     joint = _cand(301.0, why="candidate of 1000 px has no long run of gap profiles (3 of 9 good)")
     assert where_lost([[pen, piece]], TRUTH) == ("none", "no candidate on the joint")
+    # The coarse search saw the joint (its polyline, on a 4 px grid, runs along it) but the
+    # refined line went 7 px beside it: the funnel says so, with that line's verdict.
+    beside = _cand(307.0, why="dark line of 1000 px fades out inside the sheet")
+    beside.polyline = np.column_stack([np.linspace(0, 1000, 60), np.full(60, 304.0)])
+    assert where_lost([[pen, piece, beside]], TRUTH) == (
+        "none", "no candidate on the joint; a coarse line along it: dark line of # px fades out "
+        "inside the sheet")
     assert where_lost([[pen], [pen, joint]], TRUTH) == (
         "finer grid", "candidate of # px has no long run of gap profiles")
     strong = _cand(300.0)
