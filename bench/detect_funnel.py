@@ -14,7 +14,7 @@ refused view is put in the first stage where the joint was a candidate, with tha
 verdict (its reason with the numbers taken out; or, where it passed every check, "too weak" when
 even without a rival its confidence is under ``min_confidence``, else "refused for a rival");
 or "no candidate on the joint", followed, where a candidate's coarse polyline ran along the joint
-(the search saw it; its refined line went beside it or it was set aside), by that candidate's
+(a search saw it; its refined line went beside it, or it was set aside), by that candidate's
 verdict (:func:`coarse_along`). Where that candidate has ends read as open (fading out inside a
 sheet), how far short of the true end each lies, along the truth (:func:`open_ends`), binned by
 the true end's kind. Prints the tables (markdown; the first counts each verdict by look family)
@@ -97,12 +97,15 @@ def coarse_along(stages: list[list[Candidate]], truth_px: NDArray[np.float64]
                  ) -> Candidate | None:
     """The strongest candidate whose coarse polyline runs along the joint (:data:`COARSE_NEAR_PX`
     median, :data:`COVER_SHARE` of it within :data:`COARSE_COVER_PX`) when none is the joint:
-    the coarse search saw the joint there, and what it became (a line refined beside it, a
-    piece, a table line) is that candidate's verdict. None: the coarse search did not see it
-    among the candidates it handed on (``DetectParams.max_candidates``)."""
+    a search (the coarse grid, the finer grid, the valley paths) saw the joint there, and what
+    it became (a line refined beside it, a piece, a table line) is that candidate's verdict.
+    None: no search handed on a line along it (the coarse grid hands on
+    ``DetectParams.max_candidates``)."""
+    if len(truth_px) < 2:
+        return None
     along = []
     for c in (c for cands in stages for c in cands):
-        if len(c.polyline) < 2 or len(truth_px) < 2:
+        if len(c.polyline) < 2:
             continue
         d = dist_to_polyline(c.polyline, truth_px)
         cover = dist_to_polyline(truth_px, c.polyline) < COARSE_COVER_PX
