@@ -55,15 +55,17 @@ COARSE_COVER_PX = 10.0
 STAGES = ("first way", "finer grid", "valley paths")
 
 
-def on_joint(points: NDArray[np.float64] | None, truth_px: NDArray[np.float64]) -> bool:
+def on_joint(points: NDArray[np.float64] | None, truth_px: NDArray[np.float64],
+             near_px: float = NEAR_PX, cover_px: float = 6.0) -> bool:
     """Whether a candidate's points (N, 2) px lie on the true centreline (M, 2) px: within
-    :data:`NEAR_PX` (median) of it and covering :data:`COVER_SHARE` of it (to 6 px)."""
+    ``near_px`` (median, default :data:`NEAR_PX`) of it and covering :data:`COVER_SHARE` of it
+    (to ``cover_px``)."""
     if points is None or len(points) < 2 or len(truth_px) < 2:
         return False
     # The scorer's distance (bench.detect_score), so that "on the joint" means what it does there.
     d_to_truth = dist_to_polyline(points, truth_px)
     d_to_cand = dist_to_polyline(truth_px, points)
-    return bool(np.median(d_to_truth) < NEAR_PX and np.mean(d_to_cand < 6.0) >= COVER_SHARE)
+    return bool(np.median(d_to_truth) < near_px and np.mean(d_to_cand < cover_px) >= COVER_SHARE)
 
 
 def _reason(text: str) -> str:
@@ -101,16 +103,8 @@ def coarse_along(stages: list[list[Candidate]], truth_px: NDArray[np.float64]
     it became (a line refined beside it, a piece, a table line) is that candidate's verdict.
     None: no search handed on a line along it (the coarse grid hands on
     ``DetectParams.max_candidates``)."""
-    if len(truth_px) < 2:
-        return None
-    along = []
-    for c in (c for cands in stages for c in cands):
-        if len(c.polyline) < 2:
-            continue
-        d = dist_to_polyline(c.polyline, truth_px)
-        cover = dist_to_polyline(truth_px, c.polyline) < COARSE_COVER_PX
-        if np.median(d) < COARSE_NEAR_PX and np.mean(cover) >= COVER_SHARE:
-            along.append(c)
+    along = [c for cands in stages for c in cands
+             if on_joint(c.polyline, truth_px, COARSE_NEAR_PX, COARSE_COVER_PX)]
     return max(along, key=lambda k: k.coarse_score) if along else None
 
 
