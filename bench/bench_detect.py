@@ -73,12 +73,14 @@ from controller.vision.seam_detect import DetectParams, detect_seam
 BINS = (0.0, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99, 1.0001)
 
 
-def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None) -> dict[str, Any]:
-    # ``params``: ours' DetectParams (None: the defaults, as the benchmark measures).
+def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None,
+            hint: Any = None) -> dict[str, Any]:
+    # ``params``: ours' DetectParams (None: the defaults, as the benchmark measures); ``hint``:
+    # the job's nominal seam in the view (px; None: none, as the benchmark measures).
     t0 = time.perf_counter()
     try:
         if name == "ours":
-            det = detect_seam(img, camera=cam, params=params)
+            det = detect_seam(img, camera=cam, params=params, hint=hint)
             pts, conf, kinds = det.points_px, float(det.confidence), end_kinds_of(det)
             width: float | None = det.gap_width_px
             way = str(det.stats.get("way", ""))

@@ -31,6 +31,7 @@ BENCHMARKS: dict[str, tuple[list[str], list[str]]] = {
     "detect_scale": (["-m", "bench.bench_detect_scale"], ["--quick"]),
     "detect_noseam": (["-m", "bench.bench_detect_noseam"], ["--views", "6", "--shifts", "200"]),
     "detect_job_gap": (["-m", "bench.bench_detect_job_gap"], ["--cases", "12"]),
+    "detect_nominal": (["-m", "bench.bench_detect_nominal"], ["--cases", "12"]),
     "detect_speed": (["-m", "bench.bench_detect_speed"],
                      ["--scenes", "2", "--runs", "2", "--blocks", "2"]),
     "locate": (["bench/bench_locate.py"],

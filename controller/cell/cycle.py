@@ -312,7 +312,7 @@ class WeldCycle:
             if not any(isinstance(d, SeamguideError) for d in dets):
                 self.result.detections.extend(dets)
             if self.record is not None:
-                save_detections(self.record, views, dets)
+                save_detections(self.record, views, dets, self.settings.nominal_line_mm)
 
         located = locate_views(views, self.settings, detector=self.detector,
                                on_detections=detected, check=lambda: self._remaining(t),

@@ -14,7 +14,7 @@ import numpy as np
 
 from calibration.calibration_file import Calibration, calibration_to_dict
 from controller.cell.cycle_record import CycleRecord
-from controller.cell.guidance import ViewInput, locate_output
+from controller.cell.guidance import ViewInput, locate_output, nominal_hint
 from controller.cell.job import Job
 from controller.cell.seam_plot import seam_plot_png
 from controller.errors import SeamguideError
@@ -55,28 +55,34 @@ def save_view(record: CycleRecord, name: str, image: np.ndarray, T_base_cam: np.
     record.save_json(f"{name}.json", doc)
 
 
-def save_detections(record: CycleRecord, views: Sequence[ViewInput], outcomes: list[Any]
-                    ) -> None:
+def save_detections(record: CycleRecord, views: Sequence[ViewInput], outcomes: list[Any],
+                    nominal_line_mm: Sequence[Sequence[float]] | None = None) -> None:
     """Each view's ``<view>_overlay.png`` and the record's ``detections`` note.
+
+    ``nominal_line_mm``: the job's nominal seam line (base frame, mm), drawn dashed on each
+    view's picture where it is in front of the camera.
 
     ``outcomes``: per view, its detection or the ``SeamguideError`` it was refused with (its
     message written on the picture, an ambiguous refusal's two lines drawn; the note names the
     error's type). The pictures are skipped without cv2.
     """
-    _save_overlays(record, views, outcomes)
+    _save_overlays(record, views, outcomes, [
+        None if nominal_line_mm is None else nominal_hint(v.camera, v.T_base_cam, nominal_line_mm)
+        for v in views])
     record.note(detections=[
         {"view": v.name, "refused": type(d).__name__} if isinstance(d, SeamguideError)
         else {"view": v.name, "confidence": round(float(d.confidence), 3)}
         for v, d in zip(views, outcomes, strict=True)])
 
 
-def _save_overlays(record: CycleRecord, views: Sequence[ViewInput], outcomes: list[Any]) -> None:
+def _save_overlays(record: CycleRecord, views: Sequence[ViewInput], outcomes: list[Any],
+                   nominal_px: Sequence[Any]) -> None:
     try:
         from controller.vision.seam_overlay import outcome_overlay
     except ImportError:
         return
-    for view, det in zip(views, outcomes, strict=True):
-        record.save_image(f"{view.name}_overlay.png", outcome_overlay(view.image, det))
+    for view, det, nom in zip(views, outcomes, nominal_px, strict=True):
+        record.save_image(f"{view.name}_overlay.png", outcome_overlay(view.image, det, nom))
 
 
 def save_seam(record: CycleRecord, seam: Seam3D, path: WeldPath, job: Job) -> None:

@@ -96,11 +96,14 @@ def view_joints(scene: Any, cell: Any, n: int = 2, near: tuple[float, ...] = HOM
 
 def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False,
                 views: list[dict[str, Any]] | None = None,
-                timeouts: dict[str, float] | None = None, clip_unseen_ends: bool = False) -> Job:
+                timeouts: dict[str, float] | None = None, clip_unseen_ends: bool = False,
+                nominal_line: bool = False) -> Job:
     """A job for the simulated scene: the views, the nominal seam region and normal, the gap.
 
     The gap is stated as a drawing would give it, the scene's gap +-50 % (the detector's scales
-    and the widest dark band it takes for the gap follow: docs/job-file.md).
+    and the widest dark band it takes for the gap follow: docs/job-file.md). ``nominal_line``:
+    the job states the seam's nominal line too, the scene's seam (a point every 5 mm or so) as
+    a drawing would place it, moved by up to 2 mm along each axis.
 
     ``views`` replaces the views made from ``joints`` (e.g. fixed cameras' views by name).
     """
@@ -121,9 +124,18 @@ def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False,
                  "gap_mm": [round(0.5 * scene.gap_mm, 3), round(1.5 * scene.gap_mm, 3)]},
         "weld": {"confirm": confirm},
     }
+    if nominal_line:
+        seam = np.asarray(scene.seam_points_mm, dtype=np.float64)
+        step = max(1, len(seam) // max(2, int(_length_mm(seam) / 5.0)))
+        pts = np.vstack([seam[::step], seam[-1:]]) + rng.uniform(-2.0, 2.0, 3)
+        data["seam"]["nominal_line_mm"] = [[round(float(v), 3) for v in q] for q in pts]
     if timeouts:
         data["timeouts"] = timeouts
     return job_from_dict(data, "<dry-run job>")
+
+
+def _length_mm(P: np.ndarray) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(P, axis=0), axis=1)))
 
 
 def truth_errors(seam_dense_mm: np.ndarray, weld_tcp_mm: np.ndarray, tool_axis: np.ndarray,
@@ -152,7 +164,8 @@ class SimRig:
                  calibration: str | Path | Calibration | Mapping[str, Any] | None = None,
                  robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
                  confirm: bool = False, n_views: int = 2, cell: str = "wrist",
-                 clip_unseen_ends: bool = False, robot_scheme: str = "mock") -> None:
+                 clip_unseen_ends: bool = False, robot_scheme: str = "mock",
+                 nominal_line: bool = False) -> None:
         from drivers.sim.sim_cell import default_sim_cell
         from drivers.sim.sim_scene import make_scene
 
@@ -167,6 +180,7 @@ class SimRig:
         # One Calibration (wrist cell), or one per camera name (fixed-stereo cell).
         self.calibration: Any = None
         self.clip_unseen_ends = clip_unseen_ends
+        self.nominal_line = nominal_line
         if cell == "fixed-stereo":
             self._fixed_stereo(calibration, confirm)
         elif isinstance(calibration, Mapping):
@@ -181,7 +195,8 @@ class SimRig:
                                            metadata={"source": "exact simulated cell"})
         if self.fixed is None:
             self.job = dry_run_job(self.scene, view_joints(self.scene, self.cell, n_views),
-                                   confirm, clip_unseen_ends=clip_unseen_ends)
+                                   confirm, clip_unseen_ends=clip_unseen_ends,
+                                   nominal_line=nominal_line)
         # robot_scheme "rapid": the controller is SGSERVER.mod itself, in the RAPID interpreter
         self.robot_url = f"{robot_scheme}://?seed={seed}&time_scale={1.0 / speedup:g}" + (
             f"&{robot_options}" if robot_options else "")
@@ -214,7 +229,8 @@ class SimRig:
         # parallel in 10-25 s on the 2-core machine; a real camera delivers in milliseconds.
         self.job = dry_run_job(self.scene, [], confirm, views=[
             {"name": name, "camera": name} for name in self.fixed.cameras],
-            timeouts={"capture_s": 120.0}, clip_unseen_ends=self.clip_unseen_ends)
+            timeouts={"capture_s": 120.0}, clip_unseen_ends=self.clip_unseen_ends,
+            nominal_line=self.nominal_line)
 
     def __enter__(self) -> SimRig:
         from drivers.cameras import open_camera
@@ -279,7 +295,7 @@ def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_c
                 calibration: str | Path | Mapping[str, Any] | None = None,
                 robot_options: str = "", camera_options: str = "", speedup: float = 50.0,
                 confirm: bool = False, n_views: int = 2, cell: str = "wrist",
-                clip_unseen_ends: bool = False) -> DryRunReport:
+                clip_unseen_ends: bool = False, nominal_line: bool = False) -> DryRunReport:
     """Run one cycle in the simulated cell; the record goes under ``output`` (None: no record).
 
     ``calibration`` is a calibration file to use instead of the cell's exact one (e.g. from a
@@ -287,10 +303,12 @@ def run_dry_run(output: str | Path | None = "dry-run", *, scene_kind: str = "s_c
     (fault injection, e.g. ``drop=0.01&corrupt=0.02``). ``speedup`` runs simulated motion that
     many times faster than real time. ``cell``: ``wrist`` (one camera on the flange, two views)
     or ``fixed-stereo`` (two fixed cameras; ``calibration`` then maps camera names to files).
+    ``nominal_line``: the job states the seam's nominal line (:func:`dry_run_job`).
     """
     rig = SimRig(scene_kind=scene_kind, seed=seed, difficulty=difficulty, calibration=calibration,
                  robot_options=robot_options, camera_options=camera_options, speedup=speedup,
-                 confirm=confirm, n_views=n_views, cell=cell, clip_unseen_ends=clip_unseen_ends)
+                 confirm=confirm, n_views=n_views, cell=cell, clip_unseen_ends=clip_unseen_ends,
+                 nominal_line=nominal_line)
     with rig:
         cycle = rig.cycle(output)
         result = cycle.run()

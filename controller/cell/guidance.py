@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -40,7 +40,8 @@ log = logging.getLogger(__name__)
 F64 = NDArray[np.float64]
 #: A seam detector: ``detector(image, camera=..., roi=...)`` -> a seam detection
 #: (:func:`controller.vision.seam_detect.detect_seam` by default); with a nominal region it is
-#: also given ``params=`` (the view's :class:`DetectParams`, :func:`view_params`).
+#: also given ``params=`` (the view's :class:`DetectParams`, :func:`view_params`), with a nominal
+#: line ``hint=`` (:func:`nominal_hint`).
 Detector = Callable[..., Any]
 
 
@@ -67,7 +68,10 @@ class GuidanceSettings:
     to the nominal centre, sets the detector's pixel scales and the widest dark band taken for
     the gap, and the narrowest core split off a band as the gap (:func:`view_params`); None
     (the job does not say): the scales of
-    :data:`~controller.vision.seam_scale.DEFAULT_GAP_MM` and neither limit.
+    :data:`~controller.vision.seam_scale.DEFAULT_GAP_MM` and neither limit;
+    ``nominal_line_mm`` (base frame, mm, two or more points in order along the seam) and
+    ``line_tolerance_mm``: the seam as drawn, seen from each view as the detector's nominal
+    seam, and how far the real one may lie from it (:func:`nominal_hint`, :func:`view_params`).
     """
 
     quality: QualityLimits = QualityLimits()
@@ -81,6 +85,8 @@ class GuidanceSettings:
     path_tolerance: PathTolerance = field(default_factory=PathTolerance)
     clip_unseen_ends: bool = False
     gap_mm: tuple[float, float] | None = None
+    nominal_line_mm: tuple[tuple[float, float, float], ...] | None = None
+    line_tolerance_mm: float = 10.0
 
     @property
     def nominal_region(self) -> tuple[F64, float] | None:
@@ -98,7 +104,9 @@ def settings_from_job(job: Job) -> GuidanceSettings:
                             nominal_radius_mm=s.nominal_radius_mm, normal=s.normal,
                             weld=job.weld_params(), workspace=job.workspace(),
                             path_tolerance=job.path_tolerance(),
-                            clip_unseen_ends=s.clip_unseen_ends, gap_mm=s.gap_mm)
+                            clip_unseen_ends=s.clip_unseen_ends, gap_mm=s.gap_mm,
+                            nominal_line_mm=s.nominal_line_mm,
+                            line_tolerance_mm=s.line_tolerance_mm)
 
 
 @dataclass
@@ -139,6 +147,23 @@ def nominal_roi(camera: CameraModel, T_base_cam: Pose, centre_mm: F64,
     return int(x0), int(y0), int(x1), int(y1)
 
 
+def nominal_hint(camera: CameraModel, T_base_cam: Pose,
+                 line_mm: Sequence[Sequence[float]]) -> F64 | None:
+    """The nominal seam ``line_mm`` (base frame, mm) seen from ``T_base_cam``: (N, 2) px.
+
+    Sampled every mm along it and projected (distortion included); points behind the camera are
+    left out. None when fewer than two remain.
+    """
+    pts = np.asarray(line_mm, dtype=np.float64)
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    q = np.linspace(0.0, s[-1], max(2, int(np.ceil(s[-1])) + 1))
+    dense = np.column_stack([np.interp(q, s, pts[:, k]) for k in range(3)])
+    uv = camera.project(dense, T_base_cam)
+    uv = uv[np.all(np.isfinite(uv), axis=1)]
+    return uv if len(uv) >= 2 else None
+
+
 def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSettings,
                 roi: tuple[int, int, int, int] | None = None) -> DetectParams | None:
     """The detector's parameters for one view, scaled to its working distance; None: defaults.
@@ -146,7 +171,8 @@ def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSetting
     The scale is ``fx / Z`` px per mm, ``Z`` (mm) the nominal seam centre's depth in front of
     the camera at ``T_base_cam`` (base frame, mm); the seam's expected length in the image is
     the nominal sphere's diameter at that scale, at most the diagonal of ``roi`` (or of the
-    image). None without a nominal region or when its centre is not in front of the camera.
+    image); with a nominal line, how far the seam may lie from it is ``line_tolerance_mm`` at
+    that scale. None without a nominal region or when its centre is not in front of the camera.
     """
     region = settings.nominal_region
     if region is None:
@@ -159,6 +185,8 @@ def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSetting
     length = min(2.0 * radius * s, float(np.hypot(x1 - x0, y1 - y0)))
     gap = settings.gap_mm or DEFAULT_GAP_MM
     p = params_for_scale(s, gap, seam_length_px=length, limit_band=settings.gap_mm is not None)
+    if settings.nominal_line_mm is not None:
+        p = replace(p, hint_tol_px=settings.line_tolerance_mm * s)
     log.info("%.2f px/mm at %.0f mm (gap %g-%g mm%s): widest gap %.1f px, profiles +-%.1f px, "
              "shortest seam %.0f px%s", s, camera.fx / s, *gap,
              "" if settings.gap_mm is not None else ", the default",
@@ -184,9 +212,16 @@ def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
             for v in views]
     params = [view_params(v.camera, v.T_base_cam, settings, roi)
               for v, roi in zip(views, rois, strict=True)]
+    hints = None
+    if settings.nominal_line_mm is not None:
+        hints = [nominal_hint(v.camera, v.T_base_cam, settings.nominal_line_mm) for v in views]
+        for v, h in zip(views, hints, strict=True):
+            if h is None:
+                log.warning("%s: the job's nominal line is not in front of this camera; the "
+                            "view is searched without it", v.name)
     return detect_seams([v.image for v in views], camera=[v.camera for v in views], rois=rois,
                         detector=detector, names=[v.name for v in views], params=params,
-                        outcomes=outcomes)
+                        hints=hints, outcomes=outcomes)
 
 
 def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,

@@ -75,11 +75,25 @@ class SeamSpec:
     #: is not taken for the gap beside a shadow. None (not stated): the scales of
     #: DEFAULT_GAP_MM and neither rule.
     gap_mm: tuple[float, float] | None = None
+    #: The seam as drawn (base frame, mm): two or more points along it, in order, inside the
+    #: nominal sphere. Seen from each view it is the detector's nominal seam: a line
+    #: ``line_tolerance_mm`` (mean) or more from it is never welded (it still makes the view
+    #: ambiguous). None: no such check.
+    nominal_line_mm: tuple[tuple[float, float, float], ...] | None = None
+    #: How far (mm) the real seam may lie from ``nominal_line_mm`` (fixture and part tolerance).
+    line_tolerance_mm: float = 10.0
 
     def __post_init__(self) -> None:
         if self.nominal_radius_mm <= 0:
             raise ConfigError(f"seam.nominal_radius_mm must be positive, got "
                               f"{self.nominal_radius_mm}")
+        if not 0 < self.line_tolerance_mm <= self.nominal_radius_mm:
+            raise ConfigError(f"seam.line_tolerance_mm must be positive and at most "
+                              f"seam.nominal_radius_mm ({self.nominal_radius_mm:g}), got "
+                              f"{self.line_tolerance_mm:g}")
+        if self.nominal_line_mm is not None:
+            check_nominal_line(self.nominal_line_mm, self.nominal_centre_mm,
+                               self.nominal_radius_mm)
         try:
             if self.gap_mm is not None:
                 check_gap_mm(self.gap_mm, "seam.gap_mm")
@@ -87,6 +101,27 @@ class SeamSpec:
             raise ConfigError(str(err)) from err
         if self.normal is not None and np.linalg.norm(self.normal) < 1e-9:
             raise ConfigError("seam.normal must be a non-zero vector (out of the part)")
+
+
+def check_nominal_line(line: tuple[tuple[float, float, float], ...],
+                       centre: tuple[float, float, float], radius: float) -> None:
+    """Raise :class:`ConfigError` unless the nominal line is one a seam can be.
+
+    ``line`` (base frame, mm): two or more points, all inside the nominal sphere (``centre``,
+    ``radius`` mm), and some length.
+    """
+    pts = np.asarray(line, dtype=np.float64)
+    if len(pts) < 2:
+        raise ConfigError(f"seam.nominal_line_mm needs two or more points [x, y, z] along the "
+                          f"seam (base frame, mm), got {len(pts)}")
+    far = np.linalg.norm(pts - np.asarray(centre), axis=1)
+    k = int(np.argmax(far))
+    if far[k] > radius:
+        raise ConfigError(f"seam.nominal_line_mm point {k} lies {far[k]:.1f} mm from "
+                          f"seam.nominal_centre_mm, outside seam.nominal_radius_mm "
+                          f"({radius:g}): the line must lie in the nominal region")
+    if float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))) < 1.0:
+        raise ConfigError("seam.nominal_line_mm is under 1 mm long: give points along the seam")
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,10 @@ def register(sub: Any) -> None:
     p.add_argument("--clip-unseen-ends", action="store_true",
                    help="the job allows clipping a seam whose ends no view sees to its nominal "
                    "region (job key [seam] clip_unseen_ends; default: refuse such a seam)")
+    p.add_argument("--nominal-line", action="store_true",
+                   help="the job states the seam's nominal line (job keys [seam] nominal_line_mm "
+                   "and line_tolerance_mm: the scene's seam moved by up to 2 mm per axis, as a "
+                   "drawing would place it): a seam found far from it is refused")
     p.add_argument("--seed", type=int, default=1, help="scene seed (default 1)")
     p.add_argument("--difficulty", default="medium", choices=["easy", "medium", "hard"])
     p.add_argument("--calibration", action="append", metavar="[CAMERA=]FILE",
@@ -85,7 +89,7 @@ def _dry_run(args: argparse.Namespace) -> int:
                       difficulty=args.difficulty, calibration=calibration,
                       robot_options=args.robot_options, camera_options=args.camera_options,
                       speedup=args.speedup, cell=args.cell,
-                      clip_unseen_ends=args.clip_unseen_ends)
+                      clip_unseen_ends=args.clip_unseen_ends, nominal_line=args.nominal_line)
     print(summary_text(rep), file=sys.stderr)
     if args.json:
         r = rep.result

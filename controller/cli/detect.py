@@ -29,6 +29,13 @@ def register(sub: Any) -> None:
     p.add_argument("--output", help="write the JSON here instead of stdout")
     p.add_argument("--overlay", help="write a PNG showing the seam, its ends and the confidence")
     p.add_argument("--roi", help="search only in this pixel box: x0,y0,x1,y1")
+    p.add_argument("--hint", nargs="+", metavar="U,V",
+                   help="the nominal seam: two or more of its points in px of the image, in "
+                   "order along it (from the job's drawing, or a previous part); a line "
+                   "--hint-tolerance px or more from it (mean distance) is never returned (a "
+                   "safety check: such a line still makes the choice ambiguous)")
+    p.add_argument("--hint-tolerance", type=float, default=60.0, metavar="PX",
+                   help="with --hint: how far (px) the seam may lie from it (default 60)")
     p.add_argument("--gamma", type=float, default=2.2,
                    help="camera response to linearise grey levels (1 for a linear camera; "
                    "default 2.2)")
@@ -56,6 +63,23 @@ def _parse_roi(text: str | None) -> tuple[int, int, int, int] | None:
     return vals[0], vals[1], vals[2], vals[3]
 
 
+def _parse_hint(texts: list[str] | None) -> list[tuple[float, float]] | None:
+    if texts is None:
+        return None
+    pts = []
+    for t in texts:
+        try:
+            u, v = (float(x) for x in t.split(","))
+        except ValueError as err:
+            raise InputError(f"--hint {t!r}: give each point as U,V (px), e.g. --hint 100,20 "
+                             "140,900") from err
+        pts.append((u, v))
+    if len(pts) < 2:
+        raise InputError("--hint: give two or more points U,V along the nominal seam, e.g. "
+                         "--hint 100,20 140,900")
+    return pts
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``seamguide detect``; returns 0, or raises a SeamguideError (its exit code is used)."""
     from controller.vision.image_io import load_image
@@ -69,23 +93,28 @@ def run(args: argparse.Namespace) -> int:
 
         camera = load_calibration(args.calibration).camera
     roi = _parse_roi(args.roi)
+    hint = _parse_hint(args.hint)
+    if not args.hint_tolerance > 0 or args.hint_tolerance == float("inf"):
+        raise InputError(f"--hint-tolerance {args.hint_tolerance}: give a positive number of px")
     image = load_image(args.image, camera=camera)
     if args.gamma <= 0:
         raise InputError(f"--gamma {args.gamma}: must be positive")
-    params = _scaled(DetectParams(gamma=args.gamma), args, camera)
+    params = _scaled(DetectParams(gamma=args.gamma, hint_tol_px=args.hint_tolerance), args,
+                     camera)
     det = None
     try:
-        det = detect_seam(image, camera=camera, roi=roi, params=params)
+        det = detect_seam(image, camera=camera, roi=roi, hint=hint, params=params)
         # A shadow split off without the job's gap: two readings one image cannot choose from.
         one_reading(det.points_px, det.band_px, params)
     except (SeamNotFound, AmbiguousSeam) as err:
         if args.overlay:
             drawn, legend = refused_lines(err)
             _write_png(args.overlay, draw_overlay(image, det, f"NO SEAM: {err}",
-                                                  rivals_px=drawn, legend=legend))
+                                                  rivals_px=drawn, legend=legend,
+                                                  nominal_px=hint))
         raise
     if args.overlay:
-        _write_png(args.overlay, draw_overlay(image, det))
+        _write_png(args.overlay, draw_overlay(image, det, nominal_px=hint))
     doc = {"image": str(args.image), "image_size": [int(image.shape[1]), int(image.shape[0])],
            **det.to_dict()}
     emit_json(doc, args.output)

@@ -13,6 +13,11 @@ from controller.vision.seam_params import F64, Candidate, DetectParams, Tee, run
 
 JOINT_END = "joint_end"
 IMAGE_BORDER = "image_border"
+#: What an ambiguous refusal asks for. A box around the joint leaves the other line out; on the
+#: views refused so the seam found inside such a box was as often wrong as right (README, *A
+#: nominal seam line*): the person who draws the box checks the seam it gives.
+GIVE_ROI = ("give a --roi around the joint (the --overlay picture draws the lines) and check "
+            "the seam found there on the picture")
 
 
 def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
@@ -57,7 +62,7 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
             raise AmbiguousSeam(
                 f"a line ends on the best seam candidate, as at a T-corner (score "
                 f"{best.score:.0f} vs {stem.score:.0f}): the seam may be the line that ends there; "
-                "refusing to choose: give a --roi or a nominal seam hint",
+                "refusing to choose: " + GIVE_ROI,
                 best_px=summary_px(best, x0, y0), second_px=summary_px(stem, x0, y0),
                 **details)
         best = stem
@@ -72,11 +77,12 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
     ratio = (0.0 if second is None else second.score / best.score if best.score > 0 else 1.0)
     if second is not None and ratio >= p.ambiguity_ratio:
         what = ("two seam candidates of similar strength" if ratio <= 1.0 else
-                "a line stronger than the best seam candidate, rejected for how it ends or "
-                f"how wide it is ({second.why_rejected})")
+                "a line stronger than the best seam candidate, rejected")
+        if second.why_rejected:  # a rival refused for what it is, or where (a nominal seam)
+            what += ("" if ratio > 1.0 else ", the second rejected") + f" ({second.why_rejected})"
         raise AmbiguousSeam(
             f"{what} (score {best.score:.0f} vs {second.score:.0f}, ratio {ratio:.2f}); "
-            "refusing to choose: give a --roi or a nominal seam hint",
+            "refusing to choose: " + GIVE_ROI,
             best_px=summary_px(best, x0, y0),
             second_px=summary_px(second, x0, y0), **details)
     beside = _line_beside(best, good[1:], p)
@@ -85,8 +91,8 @@ def choose(cands: list[Candidate], p: DetectParams, details: dict[str, Any],
         raise AmbiguousSeam(
             f"a second line runs beside the seam candidate, {dist:.0f} px from it along most of "
             f"its length (score {best.score:.0f} vs {other.score:.0f}): a pen or soapstone line "
-            "drawn parallel to the joint looks like it; refusing to choose: give a --roi or a "
-            "nominal seam hint", best_px=summary_px(best, x0, y0),
+            "drawn parallel to the joint looks like it; refusing to choose: " + GIVE_ROI,
+            best_px=summary_px(best, x0, y0),
             second_px=summary_px(other, x0, y0), **details)
     conf, reasons = rate_confidence(best, ratio, p)
     if tee is not None:

@@ -60,7 +60,7 @@ def refused_lines(err: Exception) -> tuple[list[ArrayLike], list[str]]:
     refused (``looked_at_px``, ``looked_at_why``). Other errors: none.
     """
     d = getattr(err, "details", {})
-    roi = "Give a --roi around the joint, or a nominal seam hint"
+    roi = "Give a --roi around the joint, and check the seam found there"
     if "second_px" in d:
         return [d["best_px"], d["second_px"]], [
             f"1 (cyan): the strongest candidate; 2 (magenta): the line it could not be told "
@@ -78,16 +78,18 @@ def refused_lines(err: Exception) -> tuple[list[ArrayLike], list[str]]:
 
 def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = None,
                  message: str | None = None, max_width: int = 1600,
-                 rivals_px: Sequence[ArrayLike] = (), legend: Sequence[str] = ()
-                 ) -> NDArray[np.uint8]:
+                 rivals_px: Sequence[ArrayLike] = (), legend: Sequence[str] = (),
+                 nominal_px: ArrayLike | None = None) -> NDArray[np.uint8]:
     """BGR uint8 picture: ``image`` dimmed, the seam in green, ends in orange, text on top.
 
     ``detection`` may be None (a failed detection), then ``message`` says why; with both, the
     detection was refused for a single-image answer (two readings, drawn). ``rivals_px``: the
     centrelines (each (N, 2) image px) a refusal drew attention to (:func:`refused_lines`),
     drawn in :data:`RIVAL_COLOURS` and numbered, so that a person sees which line to give a
-    ``--roi`` around; ``legend``: what to write of them, after ``message``. The picture is
-    shrunk to at most ``max_width`` px wide (drawing is done at full resolution first).
+    ``--roi`` around; ``legend``: what to write of them, after ``message``; ``nominal_px``:
+    the nominal seam ((N, 2) image px: ``--hint``, the job's nominal line),
+    drawn dashed in white. The picture is shrunk to at most ``max_width`` px wide (drawing is
+    done at full resolution first).
     """
     img = image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
     out = (img.astype(np.float32) * 0.75).astype(np.uint8)
@@ -106,6 +108,8 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
                          "a cut face inside the gap rather than a shadow beside it")
     if message:
         lines.append(message)
+    if nominal_px is not None:
+        lines.append("white dashes: the nominal seam (no seam further from it is returned)")
     y = 40 * scale_line
     colour = (40, 230, 40) if detection is not None and not message else (60, 60, 255)
     # Hershey simplex at 0.7 x scale_line: about 12 x scale_line px a character. The text goes
@@ -116,6 +120,12 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
         cv2.putText(out, text, (20 * scale_line, y), cv2.FONT_HERSHEY_SIMPLEX,
                     0.7 * scale_line, colour, scale_line, cv2.LINE_AA)
         y += 32 * scale_line
+    if nominal_px is not None:
+        # Dashes of 16 px, 16 px apart (px of the image, before any shrinking).
+        nom = _fixed(_every_2px(nominal_px)).reshape(-1, 1, 2)
+        for i in range(0, len(nom) - 1, 16 * scale_line):
+            cv2.polylines(out, [nom[i:i + 8 * scale_line + 1]], False, (255, 255, 255),
+                          scale_line, cv2.LINE_AA, _SHIFT)
     for k, (line, rival_colour) in enumerate(zip(rivals_px, RIVAL_COLOURS, strict=False)):
         rival = np.asarray(line, dtype=np.float64).reshape(-1, 2)
         cv2.polylines(out, [_fixed(rival).reshape(-1, 1, 2)], False, rival_colour,
@@ -146,14 +156,23 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
     return np.asarray(out, dtype=np.uint8)
 
 
-def outcome_overlay(image: NDArray[np.uint8], outcome: SeamDetection | Exception
-                    ) -> NDArray[np.uint8]:
+def outcome_overlay(image: NDArray[np.uint8], outcome: SeamDetection | Exception,
+                    nominal_px: ArrayLike | None = None) -> NDArray[np.uint8]:
     """The picture of one view's outcome in a cycle (BGR uint8, as :func:`draw_overlay`).
 
     ``outcome``: its detection, or the error it was refused with, written on the picture (an
-    ambiguous refusal's lines drawn).
+    ambiguous refusal's lines drawn); ``nominal_px``: the job's nominal line in the view.
     """
     if isinstance(outcome, Exception):
         drawn, legend = refused_lines(outcome)
-        return draw_overlay(image, None, f"NO SEAM: {outcome}", rivals_px=drawn, legend=legend)
-    return draw_overlay(image, outcome)
+        return draw_overlay(image, None, f"NO SEAM: {outcome}", rivals_px=drawn, legend=legend,
+                            nominal_px=nominal_px)
+    return draw_overlay(image, outcome, nominal_px=nominal_px)
+
+
+def _every_2px(poly: ArrayLike) -> NDArray[np.float64]:
+    """``poly`` ((N, 2) px) with a point every 2 px of its length."""
+    p = np.asarray(poly, dtype=np.float64).reshape(-1, 2)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
+    q = np.arange(0.0, s[-1] + 1e-9, 2.0)
+    return np.column_stack([np.interp(q, s, p[:, 0]), np.interp(q, s, p[:, 1])])

@@ -17,8 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.errors import AmbiguousSeam
-from controller.vision.seam_coarse import mean_dist
-from controller.vision.seam_decision import summary_px
+from controller.vision.seam_decision import GIVE_ROI, summary_px
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import bilinear, resample
 
@@ -90,13 +89,12 @@ def parallel_valley(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: fl
     return None
 
 
-def no_parallel_valley(sub: NDArray[np.uint8], lut: F64, best: Candidate, hint: F64 | None,
-                       p: DetectParams, x0: int, y0: int) -> None:
+def no_parallel_valley(sub: NDArray[np.uint8], lut: F64, best: Candidate, p: DetectParams,
+                       x0: int, y0: int) -> None:
     """Raise :class:`AmbiguousSeam` if ``best`` leaves the image at both ends beside a line.
 
-    The line: a second valley (:func:`parallel_valley`), unless
-    the nominal seam ``hint`` (px, the searched image's frame) sets it aside as it sets aside
-    candidates (60 px mean distance): the job's nominal region is what resolves the choice.
+    The line: a second valley (:func:`parallel_valley`), wherever it lies: a nominal seam does
+    not set it aside, as it sets no rival aside (``seam_detect.outside_corridor``).
     """
     if best.points is None or any(k != "image border" for k in best.end_kinds):
         return
@@ -104,14 +102,10 @@ def no_parallel_valley(sub: NDArray[np.uint8], lut: F64, best: Candidate, hint: 
     found = parallel_valley(sub, lut, best.points, width, p)
     if found is not None:
         off, share, own = found
-        if hint is not None:
-            pts, nrm = resample(best.points, p.step_px, extend=0.0)
-            if mean_dist(pts + off * nrm, hint) >= 60.0:
-                return
         raise AmbiguousSeam(
             f"a second line runs parallel to the seam candidate, {abs(off):.0f} px beside it, "
             f"seen as a valley along {100 * share:.0f} % of it (the candidate: {100 * own:.0f} "
             "%); both leave the image at both ends, so how they end cannot tell which is the "
             "joint (a pen or soapstone line drawn beside it looks like it); refusing to choose: "
-            "give a --roi or a nominal seam hint", best_px=summary_px(best, x0, y0),
+            + GIVE_ROI, best_px=summary_px(best, x0, y0),
             parallel_offset_px=round(off, 1))

@@ -67,6 +67,11 @@ class DetectParams:
     the job's narrowest gap (px, 0: not stated); a darker core narrower than that inside the
     band is the floor beside a cut face, not the gap beside a shadow
     (:mod:`controller.vision.seam_shadow`).
+    ``hint_tol_px``: with a nominal seam (``detect_seam(hint=...)``: the job's nominal line seen
+    in the view, or ``seamguide detect --hint``), a candidate whose mean distance from it is
+    this or more (px of the image) is never returned (it still counts as a rival): how far the
+    real seam may lie from the nominal one (the fixture's and the part's tolerance at the view's
+    scale; the job's ``seam.line_tolerance_mm``).
     """
 
     gamma: float = 2.2
@@ -94,6 +99,7 @@ class DetectParams:
     pattern_offset_px: float = 200.0
     max_band_px: float = 0.0
     min_gap_px: float = 0.0
+    hint_tol_px: float = 60.0
 
 
 #: Refusals a later rule reads again (``Candidate.refused``); ``why_rejected`` says them to people.

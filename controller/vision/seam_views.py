@@ -18,6 +18,7 @@ def detect_seams(images: list[NDArray[Any]], *,
                  detector: Any = None,
                  names: Sequence[str] | None = None,
                  params: Sequence[DetectParams | None] | None = None,
+                 hints: Sequence[Any] | None = None,
                  outcomes: list[SeamDetection | SeamguideError] | None = None
                  ) -> list[SeamDetection]:
     """:func:`detect_seam` on several views at once, one thread per view (at most 2 at a time).
@@ -29,7 +30,9 @@ def detect_seams(images: list[NDArray[Any]], *,
     keyword arguments ``camera`` and ``roi``), e.g. in tests. With ``names`` (one per view), a
     view's error is raised as the same error type whose message starts with ``NAME: `` and whose
     details hold ``view=NAME``. ``params``: one :class:`DetectParams` per view (None: the
-    detector's defaults, and no ``params`` argument is passed to a replacement ``detector``).
+    detector's defaults, and no ``params`` argument is passed to a replacement ``detector``);
+    ``hints``: one nominal seam polyline (px) per view or None (passed as ``hint`` only where
+    given).
     ``outcomes``: if given, every view's detection or error is appended to it, in view order,
     before an error is raised (a record's pictures of every view, the refused ones too).
     """
@@ -39,14 +42,17 @@ def detect_seams(images: list[NDArray[Any]], *,
     rois = rois if rois is not None else [None] * len(images)
     cams = (list(camera) if isinstance(camera, Sequence) else [camera] * len(images))
     prms = list(params) if params is not None else [None] * len(images)
+    hnts = list(hints) if hints is not None else [None] * len(images)
     if len(rois) != len(images) or len(cams) != len(images) or len(prms) != len(images) or \
-            (names is not None and len(names) != len(images)):
+            len(hnts) != len(images) or (names is not None and len(names) != len(images)):
         raise InputError(f"detect_seams: {len(images)} images but {len(rois)} regions of interest, "
-                         f"{len(cams)} cameras, {len(prms)} parameter sets and "
-                         f"{len(names or images)} names")
+                         f"{len(cams)} cameras, {len(prms)} parameter sets, {len(hnts)} nominal "
+                         f"seams and {len(names or images)} names")
 
     def one(i: int) -> SeamDetection | SeamguideError:
         extra: dict[str, Any] = {} if prms[i] is None else {"params": prms[i]}
+        if hnts[i] is not None:
+            extra["hint"] = hnts[i]
         try:
             return fn(images[i], camera=cams[i], roi=rois[i], **extra)  # type: ignore[no-any-return]
         except SeamguideError as err:
