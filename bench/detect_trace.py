@@ -56,6 +56,15 @@ def candidate_line(c: Candidate, truth_px: F64) -> str:
             f"{'  | ' + c.why_rejected if c.why_rejected else ''}")
 
 
+def ends_to_read(c: Candidate) -> list[int]:
+    """The ends (0, 1) of ``c`` read as open, to read again; none when ``c`` was refused
+    before its ends were read (no points: its end kinds are the unread default, as
+    :func:`bench.detect_funnel.open_ends` skips them)."""
+    if c.points is None:
+        return []
+    return [end for end in (0, 1) if c.end_kinds[end] == "open"]
+
+
 def end_reading(grey: NDArray[np.uint8], c: Candidate, end: int, p: DetectParams
                 ) -> dict[str, Any]:
     """The open end ``end`` (0 or 1) of ``c`` read again (:func:`seam_ends.end_offset`).
@@ -124,10 +133,11 @@ def main(argv: list[str] | None = None) -> int:
     found = joint_candidate(stages, tp)
     if a.ends and found is not None:
         grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
-        for end in (0, 1):
-            if found[1].end_kinds[end] == "open":
-                print(f"open end {end} of the joint's candidate ({found[0]}): "
-                      f"{end_reading(grey, found[1], end, DetectParams())}")
+        if found[1].points is None:
+            print(f"the joint's candidate ({found[0]}) was refused before its ends were read")
+        for end in ends_to_read(found[1]):
+            print(f"open end {end} of the joint's candidate ({found[0]}): "
+                  f"{end_reading(grey, found[1], end, DetectParams())}")
     return 0
 
 

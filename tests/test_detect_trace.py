@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.detect_trace import candidate_line, end_reading, main
+from bench.detect_trace import candidate_line, end_reading, ends_to_read, main
 from controller.vision.seam_params import Candidate, DetectParams
 
 TRUTH = np.column_stack([np.linspace(0, 1000, 251), np.full(251, 300.0)])
@@ -22,6 +22,16 @@ def test_a_candidate_line_marks_the_joint_and_says_why_it_was_refused() -> None:
     off = candidate_line(_cand(340.0), TRUTH)
     assert on.startswith("J ") and "1 px off" in on and "| dark line of 1000 px fades out" in on
     assert off.startswith("  ") and "40 px off" in off and "|" not in off
+
+
+def test_only_ends_that_were_read_are_read_again() -> None:
+    assert ends_to_read(_cand(300.0, kinds=("open", "sheet border"))) == [0]
+    assert ends_to_read(_cand(300.0, kinds=("image border", "open"))) == [1]
+    # Refused before its ends were read (no long run of gap profiles): the kinds are the
+    # default ("open", "open"), not a reading.
+    unread = _cand(300.0, why="candidate of 1000 px has no long run of gap profiles")
+    unread.points = None
+    assert ends_to_read(unread) == []
 
 
 def _sheets(fades: bool) -> np.ndarray:
