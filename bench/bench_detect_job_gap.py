@@ -28,9 +28,8 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from bench.bench_detect import _detect, _locate, single_view
-from bench.detect_cases import FULL, case_cached, load_case, plan, view_truth
-from bench.detect_score import score_view
+from bench.detect_cases import FULL, case_cached, load_case, plan
+from bench.detect_ways import detect_one_way, way_counts
 from controller.geometry.camera_model import default_camera
 from controller.vision.seam_scale import params_for_scale
 
@@ -44,40 +43,20 @@ def run_case(args: tuple[tuple[str, str, str, int], tuple[float, float]]) -> dic
     imgs, z = load_case(case)
     row: dict[str, Any] = {"case": list(case), "family": str(z["family"])}
     for way in WAYS:
-        views, curves, widths, kinds, bands = [], [], [], [], []
-        for i, img in enumerate(imgs):
-            truth = view_truth(z, i)
-            truth["image_size"] = (img.shape[1], img.shape[0])
-            params = None
-            if way != "defaults":
-                g_mm = truth["gap_mm"]
-                params = params_for_scale(truth["gap_px"] / g_mm, (lo * g_mm, hi * g_mm),
-                                          limit_band=way == "job gap")
-            r = _detect("ours", img, cam, params)
-            if r["result"] == "returned":
-                said = r.pop("kinds")
-                r.update(score_view(r["points"], truth, said))
-                curves.append(r.pop("points"))
-                widths.append(r["width_px"])
-                bands.append(r["band"])
-                kinds.append(tuple(said) if said and len(said) == 2 else None)
-            r = single_view(r)
-            views.append({k: r.get(k) for k in ("result", "why", "confidence", "error")})
-        row[way] = {"views": views}
-        if len(imgs) == 2:
-            row[way]["pair"] = (_locate(z, curves, widths, kinds, cam, bands=bands)["result"]
-                                if len(curves) == 2 else "refused")
+        def setting(i: int, truth: dict[str, Any], way: str = way) -> tuple[Any, None]:
+            if way == "defaults":
+                return None, None
+            g_mm = truth["gap_mm"]
+            return params_for_scale(truth["gap_px"] / g_mm, (lo * g_mm, hi * g_mm),
+                                    limit_band=way == "job gap"), None
+        row[way] = detect_one_way(imgs, z, cam, setting)
     return row
 
 
 def summary(rows: list[dict[str, Any]], way: str) -> dict[str, int]:
     """Counts of one way's views (found / wrong / refused) and pairs (located / wrong)."""
+    out = way_counts(rows, way)
     views = [v for r in rows for v in r[way]["views"]]
-    pairs = [r[way]["pair"] for r in rows if "pair" in r[way]]
-    out = {k: sum(v["result"] == k for v in views) for k in ("found", "wrong", "refused")}
-    out["views"] = len(views)
-    out.update(pairs=len(pairs), pairs_located=pairs.count("located"),
-               pairs_partial=pairs.count("partial"), pairs_wrong=pairs.count("wrong"))
     # Refused for a band wider than the job's gap (seam_decision._mark_too_wide), and for two
     # readings one image cannot choose from (a shadow split without the job's gap: one_reading).
     out["refused_for_band"] = sum(v["result"] == "refused" and "the job's gap makes at most"

@@ -33,9 +33,8 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bench.bench_detect import _detect, _locate, single_view
-from bench.detect_cases import FULL, case_cached, load_case, plan, view_truth
-from bench.detect_score import score_view
+from bench.detect_cases import FULL, case_cached, load_case, plan
+from bench.detect_ways import detect_one_way, way_counts
 from controller.cell.guidance import nominal_hint
 from controller.geometry.camera_model import default_camera
 from controller.vision.seam_params import DetectParams
@@ -61,45 +60,23 @@ def run_case(args: tuple[tuple[str, str, str, int], float, float, float]) -> dic
     cam = default_camera()
     imgs, z = load_case(case)
     line = nominal_line(np.asarray(z["seam_points_mm"]), case[3], shift_mm, turn_deg)
-    row: dict[str, Any] = {"case": list(case), "family": str(z["family"])}
-    for way in WAYS:
-        views, curves, widths, kinds, bands = [], [], [], [], []
-        for i, img in enumerate(imgs):
-            truth = view_truth(z, i)
-            truth["image_size"] = (img.shape[1], img.shape[0])
-            hint, params = None, None
-            if way == "nominal line":
-                T = z[f"T{i}"]
-                hint = nominal_hint(cam, T, line)
-                s = px_per_mm_at(cam.fx, T, np.asarray(z["centre_mm"]))
-                params = None if s is None else replace(DetectParams(), hint_tol_px=tol_mm * s)
-            r = _detect("ours", img, cam, params, hint=hint)
-            if r["result"] == "returned":
-                said = r.pop("kinds")
-                r.update(score_view(r["points"], truth, said))
-                curves.append(r.pop("points"))
-                widths.append(r["width_px"])
-                bands.append(r["band"])
-                kinds.append(tuple(said) if said and len(said) == 2 else None)
-            r = single_view(r)
-            views.append({k: r.get(k) for k in ("result", "why", "confidence", "error")})
-        row[way] = {"views": views}
-        if len(imgs) == 2:
-            row[way]["pair"] = (_locate(z, curves, widths, kinds, cam, bands=bands)["result"]
-                                if len(curves) == 2 else "refused")
-    return row
+
+    def with_line(i: int, truth: dict[str, Any]) -> tuple[Any, Any]:
+        T = z[f"T{i}"]
+        s = px_per_mm_at(cam.fx, T, np.asarray(z["centre_mm"]))
+        params = None if s is None else replace(DetectParams(), hint_tol_px=tol_mm * s)
+        return params, nominal_hint(cam, T, line)
+
+    return {"case": list(case), "family": str(z["family"]),
+            "defaults": detect_one_way(imgs, z, cam, lambda i, truth: (None, None)),
+            "nominal line": detect_one_way(imgs, z, cam, with_line)}
 
 
 def summary(rows: list[dict[str, Any]], way: str) -> dict[str, int]:
-    """Counts of one way's views (found / wrong / refused) and pairs (located / wrong)."""
-    views = [v for r in rows for v in r[way]["views"]]
-    pairs = [r[way]["pair"] for r in rows if "pair" in r[way]]
-    out = {k: sum(v["result"] == k for v in views) for k in ("found", "wrong", "refused")}
-    out["views"] = len(views)
+    """Counts of one way's views (found / wrong / refused, refused as ambiguous) and pairs."""
+    out = way_counts(rows, way)
     out["ambiguous"] = sum(v["result"] == "refused" and (v["error"] or "").startswith(
-        "AmbiguousSeam") for v in views)
-    out.update(pairs=len(pairs), pairs_located=pairs.count("located"),
-               pairs_partial=pairs.count("partial"), pairs_wrong=pairs.count("wrong"))
+        "AmbiguousSeam") for r in rows for v in r[way]["views"])
     return out
 
 
