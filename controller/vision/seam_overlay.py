@@ -109,7 +109,7 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
     if message:
         lines.append(message)
     if nominal_px is not None:
-        lines.append("white dashes: the nominal seam (no seam further from it is returned)")
+        lines.append("white dashes: the nominal seam (no line beyond its tolerance is returned)")
     y = 40 * scale_line
     colour = (40, 230, 40) if detection is not None and not message else (60, 60, 255)
     # Hershey simplex at 0.7 x scale_line: about 12 x scale_line px a character. The text goes
