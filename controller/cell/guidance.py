@@ -218,7 +218,7 @@ def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
         for v, h in zip(views, hints, strict=True):
             if h is None:
                 log.warning("%s: the job's nominal line is not in front of this camera; the "
-                            "view is searched without it", v.name)
+                            "seam found in this view is not checked against it", v.name)
     return detect_seams([v.image for v in views], camera=[v.camera for v in views], rois=rois,
                         detector=detector, names=[v.name for v in views], params=params,
                         hints=hints, outcomes=outcomes)
