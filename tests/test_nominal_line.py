@@ -3,8 +3,9 @@ detector's nominal seam (``detect_seam(hint=...)``, ``DetectParams.hint_tol_px``
 ``seamguide detect --hint``): a line lying the tolerance or more from it is never returned,
 and still counts as a rival (a nominal seam never turns a refusal into a seam).
 
-Drawn images (``tests/test_seam_parallel.py``'s two sheets meeting along a gap at y = 600, with
-or without a pen line parallel to it, all running out of the image at both ends)."""
+Drawn images (``tests/test_seam_parallel.py``'s two sheets meeting along a gap at y = 600 that
+runs out of the image at both ends, with or without a pen line parallel to it, through the
+image or fading out inside the sheet)."""
 
 import json
 
