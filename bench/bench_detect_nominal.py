@@ -9,8 +9,9 @@ Over the cached ``wide``, ``pen`` and ``tee`` cases of ``bench.bench_detect`` (b
 view is detected two ways: **defaults** (``DetectParams()``, no nominal seam: what the benchmark
 measures and the issues' targets are about) and **nominal line** (as the cycle does with a job
 stating ``nominal_line_mm``: the line projected into the view by
-:func:`controller.cell.guidance.nominal_hint`, and candidates ``--tolerance-mm`` or more from it,
-at the view's scale ``fx / Z`` of the nominal centre, left out).
+:func:`controller.cell.guidance.nominal_hint`, and no candidate ``--tolerance-mm`` or more from it,
+at the view's scale ``fx / Z`` of the nominal centre, returned; the detector's other parameters
+are the defaults, so that the two ways differ by the line alone).
 
 The nominal line is the scene's true seam (base frame) as a drawing would give it, placed with a
 fixture's error: moved by up to ``--shift-mm`` in a random direction and turned by up to
