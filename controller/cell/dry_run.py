@@ -27,6 +27,7 @@ from controller.cell.job import Job, job_from_dict
 from controller.errors import ConfigError, ReachabilityError
 from controller.geometry.kinematics import inverse_kinematics, irb2400
 from controller.geometry.poses import invert, make_pose, rotation_about
+from controller.stereo.seam_curve import arc_length
 from controller.stereo.triangulate import PolylineDistance
 from drivers.mock.mock_controller import HOME_DEG as MOCK_HOME_DEG
 
@@ -126,16 +127,12 @@ def dry_run_job(scene: Any, joints: list[np.ndarray], confirm: bool = False,
     }
     if nominal_line:
         seam = np.asarray(scene.seam_points_mm, dtype=np.float64)
-        step = max(1, len(seam) // max(2, int(_length_mm(seam) / 5.0)))
+        step = max(1, len(seam) // max(2, int(arc_length(seam)[-1] / 5.0)))
         pts = np.vstack([seam[::step], seam[-1:]]) + rng.uniform(-2.0, 2.0, 3)
         data["seam"]["nominal_line_mm"] = [[round(float(v), 3) for v in q] for q in pts]
     if timeouts:
         data["timeouts"] = timeouts
     return job_from_dict(data, "<dry-run job>")
-
-
-def _length_mm(P: np.ndarray) -> float:
-    return float(np.sum(np.linalg.norm(np.diff(P, axis=0), axis=1)))
 
 
 def truth_errors(seam_dense_mm: np.ndarray, weld_tcp_mm: np.ndarray, tool_axis: np.ndarray,

@@ -31,6 +31,7 @@ from controller.geometry.poses import Pose
 from controller.path.path_fit import PathTolerance, fit_segments
 from controller.path.weld_path import WeldParams, WeldPath, WorkspaceBox, plan_weld
 from controller.stereo.locate import QualityLimits, Seam3D, ViewObservation, locate_seam
+from controller.stereo.seam_curve import resample_curve
 from controller.stereo.view_geometry import nominal_normal_from_views, view_layout_warning
 from controller.vision.seam_params import DetectParams
 from controller.vision.seam_scale import DEFAULT_GAP_MM, params_for_scale, px_per_mm_at
@@ -151,14 +152,10 @@ def nominal_hint(camera: CameraModel, T_base_cam: Pose,
                  line_mm: Sequence[Sequence[float]]) -> F64 | None:
     """The nominal seam ``line_mm`` (base frame, mm) seen from ``T_base_cam``: (N, 2) px.
 
-    Sampled every mm along it and projected (distortion included); points behind the camera are
-    left out. None when fewer than two remain.
+    Sampled about every mm along it and projected (distortion included); points behind the
+    camera are left out. None when fewer than two remain.
     """
-    pts = np.asarray(line_mm, dtype=np.float64)
-    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    q = np.linspace(0.0, s[-1], max(2, int(np.ceil(s[-1])) + 1))
-    dense = np.column_stack([np.interp(q, s, pts[:, k]) for k in range(3)])
+    dense = resample_curve(np.asarray(line_mm, dtype=np.float64), spacing_mm=1.0)
     uv = camera.project(dense, T_base_cam)
     uv = uv[np.all(np.isfinite(uv), axis=1)]
     return uv if len(uv) >= 2 else None

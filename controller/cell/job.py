@@ -25,6 +25,7 @@ from controller.jsonio import atomic_write_text
 from controller.path.path_fit import PathTolerance
 from controller.path.weld_path import WeldParams, WorkspaceBox
 from controller.stereo.locate import QualityLimits
+from controller.stereo.seam_curve import arc_length
 from controller.vision.seam_scale import check_gap_mm
 from drivers.robot_commands import SafetyLimits
 
@@ -120,7 +121,7 @@ def check_nominal_line(line: tuple[tuple[float, float, float], ...],
         raise ConfigError(f"seam.nominal_line_mm point {k} lies {far[k]:.1f} mm from "
                           f"seam.nominal_centre_mm, outside seam.nominal_radius_mm "
                           f"({radius:g}): the line must lie in the nominal region")
-    if float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))) < 1.0:
+    if float(arc_length(pts)[-1]) < 1.0:
         raise ConfigError("seam.nominal_line_mm is under 1 mm long: give points along the seam")
 
 

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from controller.vision.seam_detect import SeamDetection
+from controller.vision.seam_profiles import resample
 
 _SHIFT = 4  # cv2 drawing with sub-pixel coordinates: 4 fractional bits
 
@@ -122,7 +123,8 @@ def draw_overlay(image: NDArray[np.uint8], detection: SeamDetection | None = Non
         y += 32 * scale_line
     if nominal_px is not None:
         # Dashes of 16 px, 16 px apart (px of the image, before any shrinking).
-        nom = _fixed(_every_2px(nominal_px)).reshape(-1, 1, 2)
+        nom = _fixed(resample(np.asarray(nominal_px, dtype=np.float64).reshape(-1, 2), 2.0,
+                              extend=0.0)[0]).reshape(-1, 1, 2)
         for i in range(0, len(nom) - 1, 16 * scale_line):
             cv2.polylines(out, [nom[i:i + 8 * scale_line + 1]], False, (255, 255, 255),
                           scale_line, cv2.LINE_AA, _SHIFT)
@@ -168,11 +170,3 @@ def outcome_overlay(image: NDArray[np.uint8], outcome: SeamDetection | Exception
         return draw_overlay(image, None, f"NO SEAM: {outcome}", rivals_px=drawn, legend=legend,
                             nominal_px=nominal_px)
     return draw_overlay(image, outcome, nominal_px=nominal_px)
-
-
-def _every_2px(poly: ArrayLike) -> NDArray[np.float64]:
-    """``poly`` ((N, 2) px) with a point every 2 px of its length."""
-    p = np.asarray(poly, dtype=np.float64).reshape(-1, 2)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
-    q = np.arange(0.0, s[-1] + 1e-9, 2.0)
-    return np.column_stack([np.interp(q, s, p[:, 0]), np.interp(q, s, p[:, 1])])
