@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -14,10 +15,10 @@ from rendered_cases import rendered_view
 
 from bench.detect_score import score_view
 from controller.cli import main
-from controller.errors import SeamNotFound
+from controller.errors import AmbiguousSeam, SeamNotFound
 from controller.vision import seam_detect, seam_smaller
 from controller.vision.seam_detect import DetectParams, SeamDetection, detect_seam
-from controller.vision.seam_smaller import moved, same_seam, smaller_look
+from controller.vision.seam_smaller import moved, one_of, same_seam, smaller_look
 
 GAP = (590.0, 610.0)  # rows of the gap's edges: 20 px wide, wider than the 16 px searched
 ENDS = ((300.0, 600.0), (1300.0, 600.0))  # where the two plates stop facing each other
@@ -121,6 +122,72 @@ def test_seamguide_detect_says_the_seam_was_found_shrunk(
     assert "shrunk by 2 and again by 3" in doc["reasons"][0]
     assert "px of the image shrunk by 2" in doc["reasons"][0]
     assert sorted(e["kind"] for e in doc["ends"]) == sorted(truth["end_kinds"])
+
+
+def _ambiguous_at_full_size(monkeypatch: pytest.MonkeyPatch, rows: tuple[float, float]) -> None:
+    """The full-size search refuses as ambiguous between two lines along ``rows`` (y, px)."""
+    full_size = seam_detect._detect_in
+
+    def ambiguous(sub, hint, p, straighten, trace, box):  # type: ignore[no-untyped-def]
+        if box is not None:  # the full-size search (the shrunk ones pass no box)
+            lines = [[[x, y] for x in (300.0, 800.0, 1300.0)] for y in rows]
+            raise AmbiguousSeam("two seam candidates of similar strength (test)",
+                                best_px=lines[0], second_px=lines[1])
+        return full_size(sub, hint, p, straighten, trace, box)
+
+    monkeypatch.setattr(seam_detect, "_detect_in", ambiguous)
+
+
+def test_the_shrunk_look_chooses_only_between_the_two_lines_full_size_could_not(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    img = _plates(blur_px=2.8)
+    # The shrunk look finds the gap (row 600); it is one of the two lines: returned, and why.
+    _ambiguous_at_full_size(monkeypatch, (450.0, 601.0))
+    det = detect_seam(img)
+    assert det.stats["scale"] == 2.0
+    assert det.reasons[0].startswith("at full size: two seam candidates of similar strength "
+                                     "(test); the search on the image shrunk took this one")
+    assert np.max(np.abs(det.points_px[:, 1] - 600.0)) < 1.5
+    # Neither line is the one it finds: the full-size refusal stands.
+    _ambiguous_at_full_size(monkeypatch, (450.0, 750.0))
+    with pytest.raises(AmbiguousSeam, match="test"):
+        detect_seam(img)
+    # Nor is it looked for shrunk when the detector is told not to.
+    _ambiguous_at_full_size(monkeypatch, (450.0, 601.0))
+    with pytest.raises(AmbiguousSeam, match="test"):
+        detect_seam(img, params=DetectParams(smaller=False))
+
+
+def test_one_of_wants_most_of_the_seam_along_a_line() -> None:
+    det = _det([(x, 500.0) for x in np.arange(100.0, 901.0, 4.0)], width=4.0)
+    along = np.array([[100.0, 504.0], [900.0, 504.0]])  # 4 px off: within 6 px
+    beside = np.array([[100.0, 510.0], [900.0, 510.0]])
+    assert one_of(replace(det, width_px=np.full(len(det.points_px), 24.0)), [beside])  # 12 px
+    half = np.array([[100.0, 500.0], [450.0, 500.0]])  # a piece of it: under 80 % of the seam
+    assert one_of(det, [beside, along])
+    assert not one_of(det, [beside])
+    assert not one_of(det, [half])
+    assert not one_of(det, [])
+
+
+@pytest.fixture(scope="module")
+def tee_close_up(tmp_path_factory: pytest.TempPathFactory) -> tuple[np.ndarray, dict]:
+    """A dark close-up of the simulator's T-corner set (tuning part, a 24 px gap band leaving
+    the image at one end and ending at a T-corner at the other), rendered here."""
+    return rendered_view(tmp_path_factory.mktemp("cache"), ("tee", "medium", "tuning", 60041), 1)
+
+
+def test_a_close_up_ambiguous_at_full_size_is_found_on_the_image_shrunk(
+        tee_close_up: tuple[np.ndarray, dict]) -> None:
+    img, truth = tee_close_up
+    assert truth["gap_px"] > 20.0
+    # At full size the wide gap is measured in pieces: a valley path joining the seam to the
+    # crossbar is as strong as the seam's own, and the view was refused as ambiguous.
+    with pytest.raises(AmbiguousSeam):
+        detect_seam(img, params=DetectParams(smaller=False))
+    det = detect_seam(img)
+    assert det.stats["scale"] == 2.0 and det.reasons[0].startswith("at full size: ")
+    assert score_view(det.points_px, truth, list(det.end_kinds))["result"] == "found"
 
 
 def test_an_image_too_small_to_shrink_keeps_the_full_size_refusal() -> None:

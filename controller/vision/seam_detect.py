@@ -55,13 +55,14 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controller.errors import InputError, SeamNotFound
+from controller.errors import AmbiguousSeam, InputError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine
 from controller.vision.seam_coarse import (
@@ -90,7 +91,7 @@ from controller.vision.seam_pattern import (
 )
 from controller.vision.seam_profiles import linear_lut, resample
 from controller.vision.seam_robust import robust_candidates
-from controller.vision.seam_smaller import moved, smaller_look
+from controller.vision.seam_smaller import moved, one_of, smaller_look
 from controller.vision.seam_tee import cut_stems, find_tees
 
 #: Marks the lines of a table among candidates (seam_pattern.mark_table_lines, bound to an image).
@@ -132,7 +133,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     straighten = None if camera is None else straightener(camera, x0, y0)
     try:
         return _detect_in(sub, hint_arr, p, straighten, trace, (x0, y0, x1, y1))
-    except SeamNotFound:
+    except (SeamNotFound, AmbiguousSeam) as exc:
         if not p.smaller:
             raise
         # A gap wider and softer than the full-size search measures (a close-up): the same
@@ -141,6 +142,17 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         small = smaller_look(sub, hint_arr, p, look, straighten)
         if small is None:
             raise
+        if isinstance(exc, AmbiguousSeam):
+            # Two lines the full-size search could not choose between (it measures a close-up's
+            # wide gap in pieces): the shrunk search may choose, but only one of those two.
+            two = [np.asarray(exc.details[k], np.float64) - [x0, y0]
+                   for k in ("best_px", "second_px") if k in exc.details]
+            if not one_of(small, two):
+                raise
+            why = str(exc).split("; refusing")[0]
+            small = replace(small, reasons=[f"at full size: {why}; the search on the image "
+                                            "shrunk took this one of the two",
+                                            *small.reasons])
         return moved(small, 1.0, (x0, y0))
 
 

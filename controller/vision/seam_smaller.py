@@ -56,6 +56,8 @@ MIN_BLUR_PX = 2.0  # full-size edge blur (sigma, px) from which shrinking by 2 l
 END_AGREE_PX = 8.0  # the two scales' ends agree within this (full-size px)
 CENTRE_AGREE = 0.25  # and their centrelines within this share of the gap's width (median)
 _SIDE_PX = 8.0  # full-size profiles reach this far past the gap's edges
+ONE_OF_SHARE = 0.8  # one_of: share of the seam's points along the line
+ONE_OF_PX = 6.0  # one_of: along = within half the gap's width, at least this (px)
 _MIN_PROFILES = 8  # full-size profiles that must fit the gap to measure it there
 #: Where the search shrunk by CONFIRM finds no seam at all, two of these must find the same seam
 #: and none a different one (extended tuning part: 4 close-ups found, no wrong seam more).
@@ -127,6 +129,19 @@ def same_seam(a: SeamDetection, b: SeamDetection) -> bool:
     if float(np.max(np.linalg.norm(eb - ea, axis=1))) > END_AGREE_PX:
         return False
     return bool(np.median(_distances(a.points_px, b.points_px)) <= CENTRE_AGREE * a.gap_width_px)
+
+
+def one_of(det: SeamDetection, lines: list[F64]) -> bool:
+    """Whether ``det`` lies along one of ``lines`` (px of the same image; any point spacing).
+
+    Along: :data:`ONE_OF_SHARE` of its points within half its gap's width, or
+    :data:`ONE_OF_PX`, of the line. Where the full-size search could not choose between two
+    lines, the search on the image shrunk may choose, but only between those two
+    (:func:`controller.vision.seam_detect.detect_seam`).
+    """
+    tol = max(ONE_OF_PX, 0.5 * det.gap_width_px)
+    return any(len(q) >= 2 and float(np.mean(_distances(det.points_px, q) <= tol)) >= ONE_OF_SHARE
+               for q in lines)
 
 
 def _distances(a: F64, b: F64) -> F64:
