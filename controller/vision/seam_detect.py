@@ -35,10 +35,11 @@ joint's, so this looks for the *shape*, not for edges:
    depth of a grid twice as fine pooled onto the coarse one (a hairline gap straddling two
    coarse pixels shows half its depth in each and falls apart), keeping only lines at most a
    coarse pixel wide; then the seam as a whole-image valley path (ragged, wide, covered gaps).
-7. **The image shrunk** when all of that finds no seam: the same search on the image shrunk by 2,
-   for a gap wider and softer than the full-size scales (a defocused close-up), kept only where
-   the gap is blurred at full size and the search shrunk by 3 finds the same seam
-   (:mod:`controller.vision.seam_smaller`).
+7. **The image shrunk** when all of that finds no seam, or cannot choose between two lines: the
+   same search on the image shrunk by 2, for a gap wider and softer than the full-size scales (a
+   defocused close-up), kept only where the gap is blurred at full size and the search shrunk by
+   3 finds the same seam (:mod:`controller.vision.seam_smaller`); after an ambiguity, only if it
+   is one of the two lines (:func:`controller.vision.seam_smaller.one_of`).
 
 The steps live in :mod:`controller.vision.seam_coarse` (1, 2),
 :mod:`controller.vision.seam_profiles` (3),

@@ -6,8 +6,9 @@ close-up shows the gap 13-25 px wide and defocused (edges blurred by a sigma of 
 profiles do not reach the sheets beyond it, the ends' windows are too small for its corners, and
 the full-size search refuses it. On the image shrunk by :data:`SCALE` the same gap is 7-13 px
 wide with its blur halved: the sizes the defaults were made for. So where the full-size search
-finds no seam, the same search runs on the image shrunk by 2 (``cv2.INTER_AREA``: each pixel the
-mean of the pixels it covers), and its seam is kept only where
+finds no seam (or cannot choose between two lines, the wide gap measured in pieces: then only one
+of those two is taken, :func:`one_of`), the same search runs on the image shrunk by 2
+(``cv2.INTER_AREA``: each pixel the mean of the pixels it covers), and its seam is kept only where
 
 1. **the gap is soft at full size**: the two-edge model fitted across it at full size, on profiles
    reaching past it, finds its edges blurred by a sigma of at least :data:`MIN_BLUR_PX`. A blur
@@ -134,8 +135,8 @@ def same_seam(a: SeamDetection, b: SeamDetection) -> bool:
 def one_of(det: SeamDetection, lines: list[F64]) -> bool:
     """Whether ``det`` lies along one of ``lines`` (px of the same image; any point spacing).
 
-    Along: :data:`ONE_OF_SHARE` of its points within half its gap's width, or
-    :data:`ONE_OF_PX`, of the line. Where the full-size search could not choose between two
+    Along: :data:`ONE_OF_SHARE` of its points (every 4th) within ``max(ONE_OF_PX, half its
+    gap's width)`` px of the line. Where the full-size search could not choose between two
     lines, the search on the image shrunk may choose, but only between those two
     (:func:`controller.vision.seam_detect.detect_seam`).
     """
