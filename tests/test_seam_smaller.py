@@ -161,13 +161,14 @@ def test_the_shrunk_look_chooses_only_between_the_two_lines_full_size_could_not(
 def test_one_of_wants_most_of_the_seam_along_a_line() -> None:
     det = _det([(x, 500.0) for x in np.arange(100.0, 901.0, 4.0)], width=4.0)
     along = np.array([[100.0, 504.0], [900.0, 504.0]])  # 4 px off: within 6 px
-    beside = np.array([[100.0, 510.0], [900.0, 510.0]])
-    assert one_of(replace(det, width_px=np.full(len(det.points_px), 24.0)), [beside])  # 12 px
+    beside = np.array([[100.0, 510.0], [900.0, 510.0]])  # 10 px off
     half = np.array([[100.0, 500.0], [450.0, 500.0]])  # a piece of it: under 80 % of the seam
     assert one_of(det, [beside, along])
     assert not one_of(det, [beside])
     assert not one_of(det, [half])
     assert not one_of(det, [])
+    # A gap 24 px wide: within half its width (12 px) is along.
+    assert one_of(replace(det, width_px=np.full(len(det.points_px), 24.0)), [beside])
 
 
 @pytest.fixture(scope="module")
