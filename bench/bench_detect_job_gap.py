@@ -21,15 +21,13 @@ located as ``bench.bench_detect`` does (no clipping), so the counts compare with
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 from typing import Any
 
 from bench.detect_cases import FULL, case_cached, load_case, plan
-from bench.detect_ways import detect_one_way, way_counts
+from bench.detect_ways import detect_one_way, way_counts, write_and_print
 from controller.geometry.camera_model import default_camera
 from controller.vision.seam_scale import params_for_scale
 
@@ -89,18 +87,10 @@ def main(argv: list[str] | None = None) -> int:
         for fam in ("all", "plain", "shop", "closeup"):
             sel = [r for r in rows if r["case"][2] == split and fam in ("all", r["family"])]
             report["summary"][f"{split}/{fam}"] = {w: summary(sel, w) for w in WAYS}
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps({**report, "rows": rows}, indent=1))
-    print(f"{len(cases)} cases in {report['time_s']:.0f} s; job gap = true gap x "
-          f"{args.range[0]:g}-{args.range[1]:g}")
-    print(f"{'part/look':18s} {'way':9s} {'views':>5s} {'found':>5s} {'wrong':>5s} "
-          f"{'band':>5s} {'2read':>5s} {'pairs':>5s} {'loc':>4s} {'part':>4s} {'wrong':>5s}")
-    for key, by_way in report["summary"].items():
-        for w, s in by_way.items():
-            print(f"{key:18s} {w:9s} {s['views']:5d} {s['found']:5d} {s['wrong']:5d} "
-                  f"{s['refused_for_band']:5d} {s['refused_two_readings']:5d} "
-                  f"{s['pairs']:5d} {s['pairs_located']:4d} "
-                  f"{s['pairs_partial']:4d} {s['pairs_wrong']:5d}")
+    write_and_print(args.out, report, rows,
+                    f"{len(cases)} cases in {report['time_s']:.0f} s; job gap = true gap x "
+                    f"{args.range[0]:g}-{args.range[1]:g}", ("part/look", 18), 9,
+                    [("band", "refused_for_band", 5), ("2read", "refused_two_readings", 5)])
     return 0
 
 

@@ -23,19 +23,17 @@ views). Views are scored by ``bench.detect_score`` and counted as ``seamguide de
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bench.detect_cases import FULL, case_cached, load_case, plan
-from bench.detect_ways import detect_one_way, way_counts
+from bench.detect_ways import detect_one_way, way_counts, write_and_print
 from controller.cell.guidance import nominal_hint
 from controller.geometry.camera_model import default_camera
 from controller.vision.seam_params import DetectParams
@@ -112,18 +110,10 @@ def main(argv: list[str] | None = None) -> int:
             sel = [r for r in rows if r["case"][2] == split and r["case"][0] == st]
             if sel:
                 report["summary"][f"{split}/{st}"] = {w: summary(sel, w) for w in WAYS}
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps({**report, "rows": rows}, indent=1))
-    print(f"{len(cases)} cases in {report['time_s']:.0f} s; nominal line within "
-          f"{args.shift_mm:g} mm and {args.turn_deg:g} deg of the seam, tolerance "
-          f"{args.tolerance_mm:g} mm")
-    print(f"{'part/set':14s} {'way':12s} {'views':>5s} {'found':>5s} {'wrong':>5s} {'ambig':>5s} "
-          f"{'pairs':>5s} {'loc':>4s} {'part':>4s} {'wrong':>5s}")
-    for key, by_way in report["summary"].items():
-        for w, s in by_way.items():
-            print(f"{key:14s} {w:12s} {s['views']:5d} {s['found']:5d} {s['wrong']:5d} "
-                  f"{s['ambiguous']:5d} {s['pairs']:5d} {s['pairs_located']:4d} "
-                  f"{s['pairs_partial']:4d} {s['pairs_wrong']:5d}")
+    write_and_print(args.out, report, rows,
+                    f"{len(cases)} cases in {report['time_s']:.0f} s; nominal line within "
+                    f"{args.shift_mm:g} mm and {args.turn_deg:g} deg of the seam, tolerance "
+                    f"{args.tolerance_mm:g} mm", ("part/set", 14), 12, [("ambig", "ambiguous", 5)])
     return 0
 
 

@@ -9,7 +9,9 @@ counted as ``seamguide detect`` answers (``bench_detect.single_view``); the pair
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -56,3 +58,29 @@ def way_counts(rows: list[dict[str, Any]], way: str) -> dict[str, int]:
     out.update(pairs=len(pairs), pairs_located=pairs.count("located"),
                pairs_partial=pairs.count("partial"), pairs_wrong=pairs.count("wrong"))
     return out
+
+
+#: Columns every comparison table prints after the way: (header, summary key, width).
+VIEW_COLS = [("views", "views", 5), ("found", "found", 5), ("wrong", "wrong", 5)]
+PAIR_COLS = [("pairs", "pairs", 5), ("loc", "pairs_located", 4), ("part", "pairs_partial", 4),
+             ("wrong", "pairs_wrong", 5)]
+
+
+def write_and_print(out: str, report: dict[str, Any], rows: list[dict[str, Any]], title: str,
+                    first: tuple[str, int], way_w: int, extra: list[tuple[str, str, int]]) -> None:
+    """Write ``report`` with its ``rows`` to ``out`` (JSON) and print its summary as a table.
+
+    ``report["summary"]``: {part/set: {way: counts}}; ``first``: the first column's header and
+    width; ``extra``: the bench's own count columns (header, key, width), printed between the
+    views' and the pairs' columns.
+    """
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    Path(out).write_text(json.dumps({**report, "rows": rows}, indent=1))
+    print(title)
+    cols = VIEW_COLS + extra + PAIR_COLS
+    print(" ".join([f"{first[0]:{first[1]}s}", f"{'way':{way_w}s}",
+                    *(f"{h:>{w}s}" for h, _, w in cols)]))
+    for key, by_way in report["summary"].items():
+        for w, s in by_way.items():
+            print(" ".join([f"{key:{first[1]}s}", f"{w:{way_w}s}",
+                            *(f"{s[k]:{n}d}" for _, k, n in cols)]))
