@@ -1,0 +1,177 @@
+"""How the joint looks across in the simulator and in the real photographs, side by side.
+
+Usage (from the repository root)::
+
+    .venv/bin/python -m bench.detect_realism [--pairs 30] [--out bench/out/detect_realism.json]
+
+A detector tuned on our renderer is only as general as the renderer is wide. Here the joint
+itself is compared, not the detector: along the **true** centreline of simulated views (the
+wide set's tuning part, ``--pairs`` pairs per difficulty, rendered into the benchmark's cache
+where missing) and along the **labelled** centreline of the photographs of
+``../shared/data/real-seams``, profiles across the joint at up to 60 places (covered spans left
+out), 25 samples over 4 half-widths ``h = max(w, 2) / 2 + 1`` each side of the centre (``w``:
+the gap's width, true or labelled, px) and 3 on each sheet beyond (``4 h`` + 4, 12, 24 px), in
+linear radiance divided by the brighter sheet's level. Per view (:func:`joint_stats`):
+
+- ``floor``: the mean profile's lowest level within one half-width of the centre (0 black,
+  1 as bright as the brighter sheet);
+- ``rim``: its highest level between one and four half-widths out (above 1: a bright ridge
+  beside the gap, a ground strip's edge);
+- ``sides``: log of the darker sheet's level over the brighter's;
+- ``along``: how much the profile changes along the joint (the median over the 31 samples of
+  their spread along it, in units of the brighter sheet's level);
+- ``sheet_cv``: the sheets' own variation along the joint (spread over mean of the outer
+  samples);
+- ``width_px``.
+
+Prints, per statistic, the simulator's 5 / 50 / 95 % (all views, and per look family) and each
+photograph's value with its rank among the simulated views; the last column counts the
+photographs outside the simulator's 5-95 % range. A statistic most photographs lie outside of is
+a way the renderer is narrower than the world (README, *Seam vision*). Writes the rows as JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from bench.detect_cases import case_cached, case_list, load_case, render_case, view_truth
+from controller.vision.seam_params import DetectParams
+from controller.vision.seam_profiles import bilinear, linear_lut, resample
+
+PHOTOS = Path(__file__).resolve().parents[2] / "shared" / "data" / "real-seams"
+ACROSS = np.linspace(-4.0, 4.0, 25)
+SHEETS_PX = (4.0, 12.0, 24.0)
+PLACES = 60
+STATS = ("floor", "rim", "sides", "along", "sheet_cv", "width_px")
+F64 = NDArray[np.float64]
+
+
+def _covered(s: F64, spans: Any) -> NDArray[np.bool_]:
+    """Per arc length ``s`` (px): inside one of ``spans`` ([s0, s1] px along the line)."""
+    out = np.zeros(len(s), bool)
+    for a, b in np.asarray(spans, np.float64).reshape(-1, 2):
+        out |= (s >= a) & (s <= b)
+    return out
+
+
+def joint_stats(grey: NDArray[np.uint8], line_px: F64, width_px: float,
+                spans: Any = ()) -> dict[str, float] | None:
+    """The module's statistics of the joint along ``line_px`` (px), or None if too little of
+    it is in the image and uncovered. ``spans``: covered stretches, px along the line."""
+    pts, nrm = resample(np.asarray(line_px, np.float64), 4.0, 0.0)
+    s = np.arange(len(pts)) * 4.0
+    keep = np.flatnonzero(~_covered(s, spans))
+    if len(keep) < 10:
+        return None
+    keep = keep[np.linspace(0, len(keep) - 1, min(PLACES, len(keep))).round().astype(int)]
+    h = max(width_px, 2.0) / 2 + 1.0
+    out = [-(4 * h + d) for d in SHEETS_PX[::-1]] + [4 * h + d for d in SHEETS_PX]
+    offs = np.concatenate([ACROSS * h, out])
+    P = pts[keep][:, None, :] + offs[None, :, None] * nrm[keep][:, None, :]
+    lut = linear_lut(DetectParams().gamma)
+    val, ok = bilinear(grey, lut, P[..., 0].ravel(), P[..., 1].ravel())
+    val = np.where(ok, val, np.nan).reshape(len(keep), len(offs))
+    n = len(ACROSS)
+    rows_ok = np.all(np.isfinite(val), axis=1)
+    if rows_ok.sum() < 10:
+        return None
+    val = val[rows_ok]
+    left = np.median(val[:, n:n + 3], axis=1)
+    right = np.median(val[:, n + 3:], axis=1)
+    ref = np.maximum(left, right)[:, None] + 1e-3
+    nv = val / ref
+    mean = nv[:, :n].mean(axis=0)
+    centre = np.abs(ACROSS) <= 1.0
+    return {"floor": float(mean[centre].min()), "rim": float(mean[~centre].max()),
+            "sides": float(np.log((np.median(np.minimum(left, right)) + 1e-3)
+                                  / (np.median(np.maximum(left, right)) + 1e-3))),
+            "along": float(np.median(nv.std(axis=0))),
+            "sheet_cv": float(np.median(val[:, n:].std(axis=0) / (val[:, n:].mean(axis=0)
+                                                                  + 1e-3))),
+            "width_px": float(width_px)}
+
+
+def simulated_rows(pairs: int) -> list[dict[str, Any]]:
+    """:func:`joint_stats` of each view of the wide set's tuning part (rendered where missing)."""
+    rows = []
+    for d in ("easy", "medium", "hard"):
+        for case in case_list("wide", d, "tuning", pairs):
+            if not case_cached(case):
+                render_case(case)
+            imgs, z = load_case(case)
+            for i, img in enumerate(imgs):
+                truth = view_truth(z, i)
+                tp = np.asarray(truth["seam_px"], np.float64)
+                if len(tp) < 2 or not np.isfinite(truth["gap_px"]):
+                    continue
+                grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
+                st = joint_stats(grey, tp, truth["gap_px"], truth["spans"])
+                if st is not None:
+                    rows.append({"case": list(case), "view": i, "family": truth["family"], **st})
+    return rows
+
+
+def photo_rows(root: Path = PHOTOS) -> list[dict[str, Any]]:
+    """:func:`joint_stats` of each labelled photograph with a seam in ``root``."""
+    rows = []
+    for lab_path in sorted((root / "labels").glob("*.json")):
+        lab = json.loads(lab_path.read_text())
+        if not lab.get("seam_present", True):
+            continue
+        img = cv2.imread(str(root / lab["image"]), cv2.IMREAD_GRAYSCALE)
+        if img is None:
+            raise FileNotFoundError(f"detect_realism: cannot read {root / lab['image']}")
+        st = joint_stats(img, np.asarray(lab["polyline_px"], np.float64),
+                         float(lab["gap_width_px"]), lab.get("occluded_spans", ()))
+        if st is not None:
+            rows.append({"photo": lab_path.stem, **st})
+    return rows
+
+
+def table(sim: list[dict[str, Any]], photos: list[dict[str, Any]]) -> str:
+    """The markdown table the module docstring describes."""
+    fams = sorted({r["family"] for r in sim})
+    head = (["statistic", "simulator 5 / 50 / 95 %"] + [f"{f} 50 %" for f in fams]
+            + [p["photo"] for p in photos] + ["photos outside 5-95 %"])
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for k in STATS:
+        v = np.array([r[k] for r in sim])
+        lo, mid, hi = np.percentile(v, [5, 50, 95])
+        cells = [k, f"{lo:.2f} / {mid:.2f} / {hi:.2f}"]
+        cells += [f"{np.median([r[k] for r in sim if r['family'] == f]):.2f}" for f in fams]
+        cells += [f"{p[k]:.2f} ({100 * np.mean(v <= p[k]):.0f} %)" for p in photos]
+        cells.append(f"{sum(not lo <= p[k] <= hi for p in photos)} of {len(photos)}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Measure both, print the table, write the rows; 0, or 1 without the photographs."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pairs", type=int, default=30, help="wide tuning pairs per difficulty")
+    ap.add_argument("--photos", type=Path, default=PHOTOS)
+    ap.add_argument("--out", default="bench/out/detect_realism.json")
+    a = ap.parse_args(argv)
+    if not (a.photos / "labels").is_dir():
+        print(f"detect_realism: no labelled photographs in {a.photos} (../shared/data/"
+              "real-seams beside the checkout)", file=sys.stderr)
+        return 1
+    photos = photo_rows(a.photos)
+    sim = simulated_rows(a.pairs)
+    print(f"{len(sim)} simulated views (wide set, tuning part), {len(photos)} photographs")
+    print(table(sim, photos))
+    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(a.out).write_text(json.dumps({"simulated": sim, "photos": photos}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
