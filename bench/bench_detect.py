@@ -420,6 +420,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pen-pairs", type=int, help="pen pairs per part")
     ap.add_argument("--tee-pairs", type=int,
                     help="T-corner close-up pairs per part (with --sets ... tee)")
+    ap.add_argument("--rough-pairs", type=int,
+                    help="rough-sheet pairs per part (with --sets ... rough)")
     ap.add_argument("--classic", type=int, help="classic views per difficulty")
     ap.add_argument("--timing-runs", type=int, default=10, help="0: no timing")
     ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
@@ -430,7 +432,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     sizes = dict(QUICK if args.quick else FULL)
     for key, val in (("wide/heldout", args.pairs), ("wide/tuning", args.tuning_pairs),
-                     ("pen", args.pen_pairs), ("tee", args.tee_pairs), ("classic", args.classic)):
+                     ("pen", args.pen_pairs), ("tee", args.tee_pairs), ("rough", args.rough_pairs),
+                     ("classic", args.classic)):
         if val is not None:
             sizes[key] = val
     splits = ["tuning", "heldout"] if args.split == "both" else [args.split]

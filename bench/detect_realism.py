@@ -2,16 +2,18 @@
 
 Usage (from the repository root)::
 
-    .venv/bin/python -m bench.detect_realism [--pairs 30] [--out bench/out/detect_realism.json]
+    .venv/bin/python -m bench.detect_realism [--pairs 30] [--set wide|rough]
+        [--out bench/out/detect_realism.json]
 
 A detector tuned on our renderer is only as general as the renderer is wide. Here the joint
-itself is compared, not the detector: along the **true** centreline of simulated views (the
-wide set's tuning part, ``--pairs`` pairs per difficulty, rendered into the benchmark's cache
-where missing) and along the **labelled** centreline of the photographs of
-``../shared/data/real-seams``, profiles across the joint at up to 60 places (covered spans left
-out), 25 samples over 4 half-widths ``h = max(w, 2) / 2 + 1`` each side of the centre (``w``:
-the gap's width, true or labelled, px) and 3 on each sheet beyond (``4 h`` + 4, 12, 24 px), in
-linear radiance divided by the brighter sheet's level. Per view (:func:`joint_stats`):
+itself is compared, not the detector: along the **true** centreline of simulated views (the wide
+set's tuning part, ``--pairs`` pairs per difficulty, or with ``--set rough`` the rough set's,
+``--pairs`` in all; rendered into the benchmark's cache where missing) and along the
+**labelled** centreline of the photographs of ``../shared/data/real-seams``, profiles across the
+joint at up to 60 places (covered spans left out), 25 samples over 4 half-widths ``h = max(w, 2)
+/ 2 + 1`` each side of the centre (``w``: the gap's width, true or labelled, px) and 3 on each
+sheet beyond (``4 h`` + 4, 12, 24 px), in linear radiance divided by the brighter sheet's level.
+Per view (:func:`joint_stats`):
 
 - ``floor``: the mean profile's lowest level within one half-width of the centre (0 black,
   1 as bright as the brighter sheet);
@@ -99,23 +101,28 @@ def joint_stats(grey: NDArray[np.uint8], line_px: F64, width_px: float,
             "width_px": float(width_px)}
 
 
-def simulated_rows(pairs: int) -> list[dict[str, Any]]:
-    """:func:`joint_stats` of each view of the wide set's tuning part (rendered where missing)."""
+def simulated_rows(pairs: int, kind_set: str = "wide") -> list[dict[str, Any]]:
+    """:func:`joint_stats` of each view of a set's tuning part (rendered where missing).
+
+    ``pairs``: per difficulty for the wide set, in all for a set that mixes them (``rough``).
+    """
     rows = []
-    for d in ("easy", "medium", "hard"):
-        for case in case_list("wide", d, "tuning", pairs):
-            if not case_cached(case):
-                render_case(case)
-            imgs, z = load_case(case)
-            for i, img in enumerate(imgs):
-                truth = view_truth(z, i)
-                tp = np.asarray(truth["seam_px"], np.float64)
-                if len(tp) < 2 or not np.isfinite(truth["gap_px"]):
-                    continue
-                grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
-                st = joint_stats(grey, tp, truth["gap_px"], truth["spans"])
-                if st is not None:
-                    rows.append({"case": list(case), "view": i, "family": truth["family"], **st})
+    diffs = ("easy", "medium", "hard")
+    cases = ([c for d in diffs for c in case_list("wide", d, "tuning", pairs)]
+             if kind_set == "wide" else case_list(kind_set, "", "tuning", pairs))
+    for case in cases:
+        if not case_cached(case):
+            render_case(case)
+        imgs, z = load_case(case)
+        for i, img in enumerate(imgs):
+            truth = view_truth(z, i)
+            tp = np.asarray(truth["seam_px"], np.float64)
+            if len(tp) < 2 or not np.isfinite(truth["gap_px"]):
+                continue
+            grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
+            st = joint_stats(grey, tp, truth["gap_px"], truth["spans"])
+            if st is not None:
+                rows.append({"case": list(case), "view": i, "family": truth["family"], **st})
     return rows
 
 
@@ -156,7 +163,9 @@ def table(sim: list[dict[str, Any]], photos: list[dict[str, Any]]) -> str:
 def main(argv: list[str] | None = None) -> int:
     """Measure both, print the table, write the rows; 0, or 1 without the photographs."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--pairs", type=int, default=30, help="wide tuning pairs per difficulty")
+    ap.add_argument("--pairs", type=int, default=30,
+                    help="tuning pairs per difficulty (wide), in all (rough)")
+    ap.add_argument("--set", choices=("wide", "rough"), default="wide", dest="kind_set")
     ap.add_argument("--photos", type=Path, default=PHOTOS)
     ap.add_argument("--out", default="bench/out/detect_realism.json")
     a = ap.parse_args(argv)
@@ -165,8 +174,8 @@ def main(argv: list[str] | None = None) -> int:
               "real-seams beside the checkout)", file=sys.stderr)
         return 1
     photos = photo_rows(a.photos)
-    sim = simulated_rows(a.pairs)
-    print(f"{len(sim)} simulated views (wide set, tuning part), {len(photos)} photographs")
+    sim = simulated_rows(a.pairs, a.kind_set)
+    print(f"{len(sim)} simulated views ({a.kind_set} set, tuning part), {len(photos)} photographs")
     print(table(sim, photos))
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     Path(a.out).write_text(json.dumps({"simulated": sim, "photos": photos}, indent=1))

@@ -94,3 +94,38 @@ def test_close_ups_are_dark_noisy_defocused_and_tinted():
     lined = [sc.look.ground_edge_mm > 0 for sc in shop]
     assert 0 < sum(lined) < len(lined)
     assert all(0.3 <= sc.look.ground_edge_depth <= 0.85 for sc in shop if sc.look.ground_edge_mm)
+
+
+def test_the_rough_look_is_the_wide_look_with_mottled_sheets():
+    for split in ("tuning", "heldout"):
+        for seed in seeds_in(split, 12, start=70000):
+            rough = make_scene("straight", seed, "medium", variety="rough")
+            m = rough.look.mottle
+            assert 0.5 <= m <= 1.1 and 0.3 <= rough.look.mottle_mm <= 2.0
+            k = int((m - 0.5) / (0.6 / 6))  # 6 bins over 0.5-1.1: the parts' own
+            assert k % 2 == (0 if split == "tuning" else 1)
+            # The gap's floor stays under the mottle's dark patches (a person sees it).
+            assert rough.look.gap_contrast >= 1.0 - np.exp(-2.0 * m) - 1e-12
+    # The other varieties draw no mottle (their scenes as before the rough set).
+    assert all(make_scene("arc", s, "hard", variety=v).look.mottle == 0.0
+               for s in range(6) for v in ("wide", "pen", "tee"))
+
+
+def test_the_rough_look_changes_along_the_joint_as_the_photographs_do():
+    # bench/detect_realism.py's `along` on the true centreline: the wide set's 95th percentile
+    # is about 0.18 (README, *The renderer against the photographs*), the photographs 0.31-0.93.
+    from bench.detect_realism import joint_stats
+    from controller.geometry.camera_model import default_camera
+    from drivers.sim.sim_render import render, suggest_view_poses
+
+    cam = default_camera()
+    along = {}
+    for variety, look in (("wide", {"mottle": 0.0}), ("rough", {})):
+        sc = make_scene("straight", 70001, "easy", variety=variety,
+                        look={"gap_contrast": 0.9, "pens": 0, "tacks": 0, **look})
+        r = render(sc, cam, suggest_view_poses(sc, cam)[0], seed=1)
+        st = joint_stats(r.image if r.image.ndim == 2 else r.image.mean(axis=2).astype(np.uint8),
+                         np.asarray(r.seam_px), r.gap_px, r.occluded_spans_px)
+        assert st is not None
+        along[variety] = st["along"]
+    assert along["wide"] < 0.18 < along["rough"]

@@ -14,6 +14,12 @@ draws one for a variety and difficulty:
   *close-up* look (a dark, noisy, defocused view from 150-220 mm under a tinted spot light).
 - ``pen``: a wide look with 1-3 lines drawn parallel to the joint 3-20 mm beside it on one
   sheet, often darker and wider than the gap, sometimes crossing it.
+- ``rough``: a wide look whose sheets' brightness changes over a few mm as much as the real
+  photographs' do (``bench/detect_realism.py``: every photograph changed along its joint more
+  than any wide view): a log-normal mottle (rust, scale, grinding marks, glare patches) of
+  ``mottle`` (log-brightness spread 0.5-1.1) at ``mottle_mm`` (0.3-2 mm) and four times that,
+  drawn apart for the two sheets, over them and their ground strips; the gap's floor stays
+  under the mottle's darkest patches (two spreads down), so that a person still sees it.
 - ``tack_open``: the dry run's tack-welded seam (a classic look plus tack welds and spatter).
 - ``tee``: a close-up (any difficulty) whose joint ends at a T-corner at one end: a third plate
   lies across the joint's end beyond a crossbar gap as wide as the joint's (0.7-1.5 x), its
@@ -38,7 +44,7 @@ from typing import Any
 import numpy as np
 
 SPLITS = ("tuning", "heldout")
-VARIETIES = ("classic", "wide", "pen", "tack_open", "tee")
+VARIETIES = ("classic", "wide", "pen", "tack_open", "tee", "rough")
 #: Table kinds: holes (classic 40-60 mm grid), perforated (hole grid, pitch 8-25 mm), slotted,
 #: plain, dark, grid_lines (engraved lines).
 TABLES_TUNING = ("holes", "perforated", "slotted", "plain", "dark")
@@ -86,7 +92,8 @@ class Look:
     ``jpeg_quality``: 0 for none. ``standoff_mm``: the viewing distance the look is made for.
     ``tee_mm``: width of the crossbar gap of a T-corner at the joint's end ``tee_end`` (+1: the
     end at a = +chord/2, -1: at -chord/2), beyond which a plate ``tee_plate_mm`` long lies across
-    the joint (0: no T-corner).
+    the joint (0: no T-corner). ``mottle``: spread (standard deviation) of the sheets'
+    log-brightness, a smooth random field of scales ``mottle_mm`` and four times that (0: none).
     """
 
     variety: str = "wide"
@@ -127,6 +134,8 @@ class Look:
     tee_mm: float = 0.0
     tee_end: int = 1
     tee_plate_mm: float = 0.0
+    mottle: float = 0.0
+    mottle_mm: float = 2.0
 
 
 #: Per difficulty: (noise DN, blur px, min visibility of the gap as valley depth / noise, chance
@@ -249,6 +258,14 @@ def draw_look(rng: np.random.Generator, seed: int, difficulty: str, variety: str
             float(rng.uniform(0.45, 0.7)), 1.0, float(rng.uniform(0.4, 0.65))),
             corner_mm=float(rng.uniform(0.5, 3.0)), table="dark")
         base["length_mm"] = float(rng.uniform(100.0, 200.0))
+    if variety == "rough":
+        # A stream of its own: the look drawn before it is the wide look of the same seed.
+        mrng = np.random.default_rng([seed, 0x6D])
+        look.update(mottle=_binned(mrng, 0.5, 1.1, split),
+                    mottle_mm=float(mrng.uniform(0.3, 2.0)))
+        # Visible to a person: the gap's floor under the darkest patches of the mottle (two
+        # spreads below the sheet's mean), not only out of the sensor's noise.
+        look["gap_contrast"] = max(contrast, 1.0 - float(np.exp(-2.0 * look["mottle"])))
     if variety == "tee":
         # A stream of its own, as the edge line's.
         trng = np.random.default_rng([seed, 0x7E])

@@ -23,6 +23,7 @@ from drivers.sim.sim_gap import corner_cover, gap_band_mm, gap_profile, ground_e
 from drivers.sim.sim_light import lighting
 from drivers.sim.sim_scene import Scene
 from drivers.sim.sim_texture import (
+    MOTTLE_MM,
     RUST_MM,
     TEX_MM,
     rays,
@@ -144,11 +145,16 @@ def radiance(scene: Scene, cam: CameraModel, T_base_cam: F64) -> tuple[F32, floa
         edge = ground_edge(scene, a, d)
         if tex.rust is not None:
             rust_w = sample_map(tex.rust, a, b, tex.a0, tex.b0, RUST_MM) * (ground <= 1.0)
+        # 0 outside the map: a gain of 1.
+        mottle = (None if tex.mottle is None else
+                  np.exp(sample_map(tex.mottle, a, b, tex.a0, tex.b0, MOTTLE_MM)))
         sides: list[F32] = []
-        for alb, br in ((scene.albedo_a, brush_a), (scene.albedo_b, brush_b)):
+        for k, (alb, br) in enumerate(((scene.albedo_a, brush_a), (scene.albedo_b, brush_b))):
             al = np.float32(alb) * (1 + c * br) * ground * edge
             if rust_w is not None:
                 al = al * (1 - np.float32(0.65) * rust_w)
+            if mottle is not None:
+                al = al * mottle[:, :, k]
             sides.append(((al * (1 - alpha_p) + dec_v) * gain + spec * metal * ground)
                          .astype(np.float32))
         rad_part = np.where(sheet_a, sides[0], sides[1])

@@ -25,6 +25,8 @@ F32 = NDArray[np.float32]
 TEX_MM = 0.2
 #: Texel size (mm) of the rust map (rust blotches are mm to cm wide).
 RUST_MM = 0.5
+#: Texel size (mm) of the mottle map (the ``rough`` look's brightness changes over 0.3-8 mm).
+MOTTLE_MM = 0.25
 
 
 @functools.lru_cache(maxsize=4)
@@ -53,7 +55,7 @@ class Textures:
     """A scene's textures; the local (a, b) of texel (0, 0) is (a0, b0) mm.
 
     Two brushed-metal tiles, the decal planes (value and alpha of the part and table layers),
-    the over-joint layer (value, alpha) or None, the rust map or None.
+    the over-joint layer (value, alpha) or None, the rust map or None, the mottle map or None.
     """
 
     brush_a: F32
@@ -63,6 +65,7 @@ class Textures:
     b0: float
     over: NDArray[np.uint8] | None = None  # (H, W, 2): value, alpha of tack welds and spatter
     rust: F32 | None = None  # (h, w) 0..1 at RUST_MM per texel
+    mottle: F32 | None = None  # (h, w, 2) log-brightness gain of sheets A, B at MOTTLE_MM
 
 
 def _brush(rng: np.random.Generator, size: int = 1024) -> F32:
@@ -116,8 +119,29 @@ def textures(scene: Scene) -> Textures:
         rust = _rust_map(np.random.default_rng(np.random.SeedSequence([scene.seed, 79])),
                          int(w * TEX_MM / RUST_MM) + 1, int(h * TEX_MM / RUST_MM) + 1,
                          scene.look.rust)
+    mottle = None
+    if scene.look is not None and scene.look.mottle > 0:
+        mottle = _mottle_map(np.random.default_rng(np.random.SeedSequence([scene.seed, 83])),
+                             int(w * TEX_MM / MOTTLE_MM) + 1, int(h * TEX_MM / MOTTLE_MM) + 1,
+                             scene.look.mottle, scene.look.mottle_mm)
     return Textures(brush_a, brush_b, np.asarray(cv2.merge(planes), np.uint8), a0, b0,
-                    np.asarray(cv2.merge(over), np.uint8) if over else None, rust)
+                    np.asarray(cv2.merge(over), np.uint8) if over else None, rust, mottle)
+
+
+def _mottle_map(rng: np.random.Generator, w: int, h: int, spread: float,
+                scale_mm: float) -> F32:
+    """Log-brightness gain per sheet, (h, w, 2): A in channel 0, B in 1, independent.
+
+    Each a smooth field of scales ``scale_mm`` and 4 x that, std ``spread``, mean
+    ``-spread**2 / 2`` (the gain ``exp(field)`` averages 1).
+    """
+    out = []
+    for _ in range(2):
+        fields = [cv2.GaussianBlur(rng.standard_normal((h, w)).astype(np.float32), (0, 0),
+                                   k * scale_mm / MOTTLE_MM) for k in (1.0, 4.0)]
+        n = sum(f / (f.std() + 1e-9) for f in fields)
+        out.append(spread * n / (n.std() + 1e-9) - spread**2 / 2)
+    return np.asarray(cv2.merge(out), np.float32)
 
 
 def _rust_map(rng: np.random.Generator, w: int, h: int, amount: float) -> F32:
