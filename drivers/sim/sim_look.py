@@ -265,7 +265,8 @@ def draw_look(rng: np.random.Generator, seed: int, difficulty: str, variety: str
                     mottle_mm=float(mrng.uniform(0.3, 2.0)))
         # Visible to a person: the gap's floor under the darkest patches of the mottle (two
         # spreads below the sheet's mean), not only out of the sensor's noise.
-        look["gap_contrast"] = max(contrast, 1.0 - float(np.exp(-2.0 * look["mottle"])))
+        look["gap_contrast"] = max(look["gap_contrast"],
+                                   1.0 - float(np.exp(-2.0 * look["mottle"])))
     if variety == "tee":
         # A stream of its own, as the edge line's.
         trng = np.random.default_rng([seed, 0x7E])
