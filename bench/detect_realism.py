@@ -133,6 +133,10 @@ def photo_rows(root: Path = PHOTOS) -> list[dict[str, Any]]:
         lab = json.loads(lab_path.read_text())
         if not lab.get("seam_present", True):
             continue
+        missing = [k for k in ("image", "polyline_px", "gap_width_px") if k not in lab]
+        if missing:
+            raise ValueError(f"detect_realism: label {lab_path} has no {', '.join(missing)} "
+                             "(score.py's label format: ../shared/data/real-seams/README.md)")
         img = cv2.imread(str(root / lab["image"]), cv2.IMREAD_GRAYSCALE)
         if img is None:
             raise FileNotFoundError(f"detect_realism: cannot read {root / lab['image']}")

@@ -84,3 +84,11 @@ def test_the_command_writes_both_sides(tmp_path: Path, monkeypatch: pytest.Monke
     assert len(data["photos"]) == 9 and 2 <= len(data["simulated"]) <= 6
     assert "| along |" in capsys.readouterr().out
     assert detect_realism.main(["--photos", str(tmp_path / "none")]) == 1
+
+
+def test_a_label_without_its_width_is_named(tmp_path: Path) -> None:
+    (tmp_path / "labels").mkdir()
+    (tmp_path / "labels" / "a.json").write_text(json.dumps(
+        {"image": "images/a.jpg", "seam_present": True, "polyline_px": [[0, 0], [9, 9]]}))
+    with pytest.raises(ValueError, match=r"a\.json has no gap_width_px"):
+        photo_rows(tmp_path)
