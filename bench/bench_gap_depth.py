@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import collections
-import glob
 import json
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -33,10 +32,10 @@ from typing import Any
 import cv2
 import numpy as np
 
+from bench.real_seams import PHOTOS, labelled_photos
 from controller.vision.seam_params import F64
 from controller.vision.seam_profiles import bilinear, linear_lut, resample
 
-PHOTOS = Path(__file__).resolve().parents[2] / "shared" / "data" / "real-seams"
 OFFSETS = np.arange(-40.0, 40.25, 0.5)
 #: Core / level bins of the table (upper edges).
 BINS = (0.1, 0.25, 0.5, 0.75, np.inf)
@@ -71,10 +70,7 @@ def gap_figures(grey: np.ndarray, centre_px: F64, gap_px: float, gamma: float = 
 def photo_rows() -> list[dict[str, Any]]:
     """One row per labelled photograph: name, core / level, ridge."""
     rows = []
-    for f in sorted(glob.glob(str(PHOTOS / "labels" / "*.json"))):
-        label = json.loads(Path(f).read_text())
-        name = Path(f).stem
-        grey = cv2.imread(str(PHOTOS / "images" / f"{name}.jpg"), cv2.IMREAD_GRAYSCALE)
+    for name, label, grey in labelled_photos(PHOTOS):
         got = gap_figures(grey, label["polyline_px"], float(label.get("gap_width_px", 6.0)))
         if got is not None:
             rows.append({"name": name, "core": got[0], "ridge": got[1]})

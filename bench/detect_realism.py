@@ -26,7 +26,9 @@ Per view (:func:`joint_stats`):
   samples);
 - ``width_px``.
 
-Prints, per statistic, the simulator's 5 / 50 / 95 % (all views, and per look family) and each
+``bench.bench_gap_depth`` sets the gap's depth and a ridge beside it against the detector's
+verdicts, look by look; here every statistic is ranked against the simulator's spread. Prints, per
+statistic, the simulator's 5 / 50 / 95 % (all views, and per look family) and each
 photograph's value with its rank among the simulated views; the last column counts the
 photographs outside the simulator's 5-95 % range. A statistic most photographs lie outside of is
 a way the renderer is narrower than the world (README, *Seam vision*). Writes the rows as JSON.
@@ -45,10 +47,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bench.detect_cases import case_cached, case_list, load_case, render_case, view_truth
+from bench.real_seams import PHOTOS, labelled_photos
 from controller.vision.seam_params import DetectParams
 from controller.vision.seam_profiles import bilinear, linear_lut, resample
 
-PHOTOS = Path(__file__).resolve().parents[2] / "shared" / "data" / "real-seams"
 ACROSS = np.linspace(-4.0, 4.0, 25)
 SHEETS_PX = (4.0, 12.0, 24.0)
 PLACES = 60
@@ -129,21 +131,13 @@ def simulated_rows(pairs: int, kind_set: str = "wide") -> list[dict[str, Any]]:
 def photo_rows(root: Path = PHOTOS) -> list[dict[str, Any]]:
     """:func:`joint_stats` of each labelled photograph with a seam in ``root``."""
     rows = []
-    for lab_path in sorted((root / "labels").glob("*.json")):
-        lab = json.loads(lab_path.read_text())
+    for name, lab, img in labelled_photos(root, need=("polyline_px", "gap_width_px")):
         if not lab.get("seam_present", True):
             continue
-        missing = [k for k in ("image", "polyline_px", "gap_width_px") if k not in lab]
-        if missing:
-            raise ValueError(f"detect_realism: label {lab_path} has no {', '.join(missing)} "
-                             "(score.py's label format: ../shared/data/real-seams/README.md)")
-        img = cv2.imread(str(root / lab["image"]), cv2.IMREAD_GRAYSCALE)
-        if img is None:
-            raise FileNotFoundError(f"detect_realism: cannot read {root / lab['image']}")
         st = joint_stats(img, np.asarray(lab["polyline_px"], np.float64),
                          float(lab["gap_width_px"]), lab.get("occluded_spans", ()))
         if st is not None:
-            rows.append({"photo": lab_path.stem, **st})
+            rows.append({"photo": name, **st})
     return rows
 
 

@@ -92,3 +92,13 @@ def test_a_label_without_its_width_is_named(tmp_path: Path) -> None:
         {"image": "images/a.jpg", "seam_present": True, "polyline_px": [[0, 0], [9, 9]]}))
     with pytest.raises(ValueError, match=r"a\.json has no gap_width_px"):
         photo_rows(tmp_path)
+
+
+def test_a_label_whose_image_cannot_be_read_is_named(tmp_path: Path) -> None:
+    from bench.real_seams import labelled_photos
+
+    (tmp_path / "labels").mkdir()
+    (tmp_path / "labels" / "b.json").write_text(json.dumps(
+        {"image": "images/b.jpg", "polyline_px": [[0, 0], [9, 9]], "gap_width_px": 4.0}))
+    with pytest.raises(FileNotFoundError, match=r"images/b\.jpg \(label .*b\.json\)"):
+        list(labelled_photos(tmp_path))
