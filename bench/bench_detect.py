@@ -263,13 +263,26 @@ def reliability(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+#: The sets whose views the per-look, per-way, per-width, per-feature and reliability tables
+#: count together under the part's name; any other set's views are counted apart, under
+#: "SET PART" (a run with the rough or T-corner set does not change the wide and pen rows).
+POOLED = ("wide", "pen")
+
+
+def part_of(key: str) -> str:
+    """The part a row key (``set/difficulty/part``) is counted under in the tables: the part
+    for the wide and pen sets, ``"SET PART"`` for any other."""
+    kind_set, part = key.split("/", 1)[0], key.rsplit("/", 1)[-1]
+    return part if kind_set in POOLED else f"{kind_set} {part}"
+
+
 def _our_single_views(rows: dict[str, list[dict[str, Any]]]
                       ) -> Iterator[tuple[str, str, dict[str, Any]]]:
-    """(part, look family, our result) of every single view of the wide and pen sets."""
+    """(part as :func:`part_of`, look family, our result) of every non-classic single view."""
     for key, rs in rows.items():
         if key.startswith("classic"):
             continue
-        part = key.rsplit("/", 1)[-1]
+        part = part_of(key)
         for r in rs:
             for v in r["views"]:
                 yield part, r["family"], v["ours"]
@@ -303,7 +316,7 @@ def wrong_by_scene(rows: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str,
     for key, rs in rows.items():
         if key.startswith("classic"):
             continue
-        part = key.rsplit("/", 1)[-1]
+        part = part_of(key)
         for r in rs:
             for v in r["views"]:
                 for feat in view_features(r.get("scene", {}), v):
@@ -466,10 +479,10 @@ def main(argv: list[str] | None = None) -> int:
                                 "--", "controller/vision"),
         "summary": {key: {n: summarise(r, n) for n in ("ours", "published")}
                     for key, r in rows.items()},
-        "reliability": {split: reliability([r for key, rs in rows.items() for r in rs
-                                            if key.endswith(split) and
-                                            not key.startswith("classic")])
-                        for split in splits},
+        "reliability": {part: reliability([r for key, rs in rows.items() for r in rs
+                                           if part_of(key) == part])
+                        for part in dict.fromkeys(part_of(k) for k in rows
+                                                  if not k.startswith("classic"))},
         "by_look": by_look(rows),
         "by_way": by_way(rows),
         "by_width": by_width(rows),
@@ -544,8 +557,8 @@ def markdown(rep: dict[str, Any]) -> str:
                   "pairs with both views split, by the reading the two views agreed on "
                   "(core: a shadow beside the gap; band: a cut face inside it): " + "; ".join(
                       f"{k} {n} views, pairs {r or '-'}" for k, (n, r) in split.items()) + "."]
-    lines += ["", "Reliability (ours, single views of the wide and pen sets): share of returned "
-              "seams found per confidence bin.", "",
+    lines += ["", "Reliability (ours, single views of the wide and pen sets; any other set in a "
+              "column of its own): share of returned seams found per confidence bin.", "",
               "| confidence | " + " | ".join(rep["reliability"]) + " |",
               "|---|" + "---|" * len(rep["reliability"])]
     for i, lo_hi in enumerate(BINS[:-1]):
@@ -562,7 +575,8 @@ def markdown(rep: dict[str, Any]) -> str:
             ("wrong_by_scene", "by what the scene had (single views", "scene feature", "views",
              ("wrong",))):
         if rep.get(key):
-            lines += _count_table(f"Ours {title} of the wide and pen sets):", first, rep[key],
+            lines += _count_table(f"Ours {title} of the wide and pen sets; any other set in "
+                                  "rows of its own):", first, rep[key],
                                   total, rest)
     t = rep.get("timing")
     if t is None:

@@ -24,6 +24,10 @@ Per view (:func:`joint_stats`):
   their spread along it, in units of the brighter sheet's level);
 - ``sheet_cv``: the sheets' own variation along the joint (spread over mean of the outer
   samples);
+- ``look_alike``: the share of the detector's own gap profiles (``seam_profiles.fit_at``, the
+  default parameters) that pass on four lines parallel to the joint, ``w`` + 40 and ``w`` + 80 px
+  each side of it: how often the sheets themselves look like a gap, at the places the detector
+  would look (scratches, pits, rust, brushing);
 - ``width_px``.
 
 ``bench.bench_gap_depth`` sets the gap's depth and a ridge beside it against the detector's
@@ -49,12 +53,14 @@ from numpy.typing import NDArray
 from bench.detect_cases import case_cached, case_list, load_case, render_case, view_truth
 from bench.real_seams import PHOTOS, labelled_photos
 from controller.vision.seam_params import DetectParams
-from controller.vision.seam_profiles import bilinear, linear_lut, resample
+from controller.vision.seam_profiles import bilinear, fit_at, linear_lut, resample
 
 ACROSS = np.linspace(-4.0, 4.0, 25)
 SHEETS_PX = (4.0, 12.0, 24.0)
 PLACES = 60
-STATS = ("floor", "rim", "sides", "along", "sheet_cv", "width_px")
+STATS = ("floor", "rim", "sides", "along", "sheet_cv", "look_alike", "width_px")
+#: Lines parallel to the joint for ``look_alike``: this far beyond the gap's width, px.
+BESIDE_PX = (40.0, 80.0)
 F64 = NDArray[np.float64]
 
 
@@ -100,7 +106,29 @@ def joint_stats(grey: NDArray[np.uint8], line_px: F64, width_px: float,
             "along": float(np.median(nv.std(axis=0))),
             "sheet_cv": float(np.median(val[:, n:].std(axis=0) / (val[:, n:].mean(axis=0)
                                                                   + 1e-3))),
+            "look_alike": _look_alike(grey, pts[keep], nrm[keep], width_px),
             "width_px": float(width_px)}
+
+
+def _look_alike(grey: NDArray[np.uint8], pts: F64, nrm: F64, width_px: float) -> float:
+    """Share of gap profiles passed on lines parallel to the joint ``pts`` (px, normals ``nrm``)
+    ``width_px`` + :data:`BESIDE_PX` each side; places whose profile leaves the image not
+    counted; NaN where none is left."""
+    p = DetectParams()
+    h, w = grey.shape
+    passed, looked = 0, 0
+    for d in BESIDE_PX:
+        for sign in (-1.0, 1.0):
+            q = pts + sign * (width_px + d) * nrm
+            reach = p.half_width_px + 1.0
+            inside = ((q[:, 0] >= reach) & (q[:, 0] <= w - 1 - reach)
+                      & (q[:, 1] >= reach) & (q[:, 1] <= h - 1 - reach))
+            if not inside.any():
+                continue
+            fit = fit_at(grey, linear_lut(p.gamma), q[inside], nrm[inside], p)
+            passed += int(fit["valid"].sum())
+            looked += int(inside.sum())
+    return passed / looked if looked else float("nan")
 
 
 def simulated_rows(pairs: int, kind_set: str = "wide") -> list[dict[str, Any]]:
@@ -148,12 +176,16 @@ def table(sim: list[dict[str, Any]], photos: list[dict[str, Any]]) -> str:
             + [p["photo"] for p in photos] + ["photos outside 5-95 %"])
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for k in STATS:
-        v = np.array([r[k] for r in sim])
+        # look_alike is NaN where no parallel line lies in the image: left out, shown as -.
+        v = np.array([r[k] for r in sim], np.float64)
+        v = v[np.isfinite(v)]
         lo, mid, hi = np.percentile(v, [5, 50, 95])
         cells = [k, f"{lo:.2f} / {mid:.2f} / {hi:.2f}"]
-        cells += [f"{np.median([r[k] for r in sim if r['family'] == f]):.2f}" for f in fams]
-        cells += [f"{p[k]:.2f} ({100 * np.mean(v <= p[k]):.0f} %)" for p in photos]
-        cells.append(f"{sum(not lo <= p[k] <= hi for p in photos)} of {len(photos)}")
+        cells += [f"{np.nanmedian([r[k] for r in sim if r['family'] == f]):.2f}" for f in fams]
+        seen = [p for p in photos if np.isfinite(p[k])]
+        cells += [f"{p[k]:.2f} ({100 * np.mean(v <= p[k]):.0f} %)" if np.isfinite(p[k]) else "-"
+                  for p in photos]
+        cells.append(f"{sum(not lo <= p[k] <= hi for p in seen)} of {len(seen)}")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -84,3 +84,23 @@ def test_returned_views_are_counted_by_the_detected_band_width() -> None:
     assert out == {">= 16 px/heldout": {"returned": 1, "found": 0, "wrong": 1},
                    "0-3 px/tuning": {"returned": 1, "found": 1, "wrong": 0},
                    "8-12 px/tuning": {"returned": 2, "found": 1, "wrong": 1}}
+
+
+def test_sets_other_than_wide_and_pen_are_counted_in_rows_of_their_own() -> None:
+    # A run with the rough or T-corner set beside the wide and pen sets leaves the wide and pen
+    # rows (the README's) as they are without them.
+    def view(result: str, conf: float | None) -> dict[str, Any]:
+        return {"ours": {"result": result, "confidence": conf, "way": "profiles"}}
+
+    wide = {"wide/easy/tuning": [{"family": "plain", "views": [view("found", 0.97)]}],
+            "pen/mixed/tuning": [{"family": "shop", "views": [view("refused", None)]}]}
+    rough = {"rough/mixed/tuning": [{"family": "plain", "views": [view("wrong", 0.97)]}],
+             "tee/mixed/heldout": [{"family": "closeup", "views": [view("found", 0.6)]}]}
+    assert [bench_detect.part_of(k) for k in (*wide, *rough)] == [
+        "tuning", "tuning", "rough tuning", "tee heldout"]
+    alone, both = bench_detect.by_look(wide), bench_detect.by_look({**wide, **rough})
+    assert {k: v for k, v in both.items() if k in alone} == alone
+    assert both["plain/rough tuning"]["wrong"] == 1 and both["closeup/tee heldout"]["found"] == 1
+    ways = bench_detect.by_way({**wide, **rough})
+    assert ways["profiles/tuning"] == {"returned": 1, "found": 1, "wrong": 0}
+    assert ways["profiles/rough tuning"] == {"returned": 1, "found": 0, "wrong": 1}

@@ -45,6 +45,17 @@ def test_a_joint_that_changes_along_its_length_reads_so() -> None:
     assert rough["along"] > 4 * calm["along"] and rough["sheet_cv"] > 4 * calm["sheet_cv"]
 
 
+def test_scratches_beside_the_joint_are_counted_as_look_alikes() -> None:
+    clean = _joint()
+    scratched = clean.copy()
+    # Two dark 2 px scratches on the lines the statistic looks along (6 + 40 px each side).
+    scratched[:, 153:155] = 30
+    scratched[:, 245:247] = 60
+    a, b = joint_stats(clean, LINE, 6.0), joint_stats(scratched, LINE, 6.0)
+    assert a is not None and b is not None
+    assert a["look_alike"] == 0.0 and b["look_alike"] == pytest.approx(0.5, abs=0.05)
+
+
 def test_covered_spans_and_lines_off_the_image_are_left_out() -> None:
     img = _joint()
     img[100:300, 150:250] = 250  # a bright tack weld over the joint and the sheets beside

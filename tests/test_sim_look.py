@@ -1,3 +1,4 @@
+import cv2
 import numpy as np
 import pytest
 
@@ -106,9 +107,30 @@ def test_the_rough_look_is_the_wide_look_with_mottled_sheets():
             assert k % 2 == (0 if split == "tuning" else 1)
             # The gap's floor stays under the mottle's dark patches (a person sees it).
             assert rough.look.gap_contrast >= 1.0 - np.exp(-2.0 * m) - 1e-12
+            # Scratches and pits in it, as many per area as the part's bins of 2-26 give.
+            k = int((rough.look.marks - 2.0) / (24.0 / 6))
+            assert 2.0 <= rough.look.marks <= 26.0 and k % 2 == (0 if split == "tuning" else 1)
     # The other varieties draw no mottle (their scenes as before the rough set).
     assert all(make_scene("arc", s, "hard", variety=v).look.mottle == 0.0
+               and make_scene("arc", s, "hard", variety=v).look.marks == 0.0
                for s in range(6) for v in ("wide", "pen", "tee"))
+
+
+def test_the_marks_are_thin_dark_lines_and_pits_as_many_as_asked():
+    from drivers.sim.sim_texture import MOTTLE_MM, _marks_map
+
+    w = h = 400  # 100 x 100 mm at 0.25 mm texels
+    few = _marks_map(np.random.default_rng(1), w, h, 2.0)
+    many = _marks_map(np.random.default_rng(1), w, h, 20.0)
+    assert few.shape == (h, w, 2) and few.max() <= 0.0 and few.min() >= -1.5 - 1e-6
+    # Dark texels grow with the count; thin: a 3 x 3 opening (0.75 mm) takes most of them.
+    dark = [(m[:, :, 0] < -0.2).astype(np.uint8) for m in (few, many)]
+    assert 4 * dark[0].sum() < dark[1].sum()
+    opened = cv2.morphologyEx(dark[0], cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    assert opened.sum() < 0.2 * dark[0].sum()
+    # The two sheets get marks of their own.
+    assert not np.array_equal(many[:, :, 0], many[:, :, 1])
+    assert MOTTLE_MM == 0.25
 
 
 def test_the_rough_look_changes_along_the_joint_as_the_photographs_do():
@@ -119,7 +141,7 @@ def test_the_rough_look_changes_along_the_joint_as_the_photographs_do():
     from drivers.sim.sim_render import render, suggest_view_poses
 
     cam = default_camera()
-    along = {}
+    along, alike = {}, {}
     for variety, look in (("wide", {"mottle": 0.0}), ("rough", {})):
         sc = make_scene("straight", 70001, "easy", variety=variety,
                         look={"gap_contrast": 0.9, "pens": 0, "tacks": 0, **look})
@@ -127,5 +149,8 @@ def test_the_rough_look_changes_along_the_joint_as_the_photographs_do():
         st = joint_stats(r.image if r.image.ndim == 2 else r.image.mean(axis=2).astype(np.uint8),
                          np.asarray(r.seam_px), r.gap_px, r.occluded_spans_px)
         assert st is not None
-        along[variety] = st["along"]
+        along[variety], alike[variety] = st["along"], st["look_alike"]
     assert along["wide"] < 0.18 < along["rough"]
+    # Its scratches and pits look like a gap to the detector's profile test far more often than
+    # a wide view's sheets (README: the rough set's 5-95 % takes in the photographs' 0.11-0.21).
+    assert alike["wide"] < 0.02 and alike["rough"] > 0.05

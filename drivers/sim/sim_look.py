@@ -19,7 +19,10 @@ draws one for a variety and difficulty:
   than any wide view): a log-normal mottle (rust, scale, grinding marks, glare patches) of
   ``mottle`` (log-brightness spread 0.5-1.1) at ``mottle_mm`` (0.3-2 mm) and four times that,
   drawn apart for the two sheets, over them and their ground strips; the gap's floor stays
-  under the mottle's darkest patches (two spreads down), so that a person still sees it.
+  under the mottle's darkest patches (two spreads down), so that a person still sees it. In the
+  field, ``marks`` thin dark scratches and pits per 100 mm^2 (2-26; the photographs' sheets
+  offer the detector's profile test five to ten times as many gap-like places as a wide view's:
+  ``detect_realism``'s ``look_alike``).
 - ``tack_open``: the dry run's tack-welded seam (a classic look plus tack welds and spatter).
 - ``tee``: a close-up (any difficulty) whose joint ends at a T-corner at one end: a third plate
   lies across the joint's end beyond a crossbar gap as wide as the joint's (0.7-1.5 x), its
@@ -94,6 +97,8 @@ class Look:
     end at a = +chord/2, -1: at -chord/2), beyond which a plate ``tee_plate_mm`` long lies across
     the joint (0: no T-corner). ``mottle``: spread (standard deviation) of the sheets'
     log-brightness, a smooth random field of scales ``mottle_mm`` and four times that (0: none).
+    ``marks``: thin dark marks (scratches 1-8 mm long, pits) in that field, per 100 mm^2 of
+    each sheet (0: none).
     """
 
     variety: str = "wide"
@@ -136,6 +141,7 @@ class Look:
     tee_plate_mm: float = 0.0
     mottle: float = 0.0
     mottle_mm: float = 2.0
+    marks: float = 0.0
 
 
 #: Per difficulty: (noise DN, blur px, min visibility of the gap as valley depth / noise, chance
@@ -263,6 +269,8 @@ def draw_look(rng: np.random.Generator, seed: int, difficulty: str, variety: str
         mrng = np.random.default_rng([seed, 0x6D])
         look.update(mottle=_binned(mrng, 0.5, 1.1, split),
                     mottle_mm=float(mrng.uniform(0.3, 2.0)))
+        # Drawn after the mottle's values, so that those stay as they were before marks.
+        look["marks"] = _binned(mrng, 2.0, 26.0, split)
         # Visible to a person: the gap's floor under the darkest patches of the mottle (two
         # spreads below the sheet's mean), not only out of the sensor's noise.
         look["gap_contrast"] = max(look["gap_contrast"],

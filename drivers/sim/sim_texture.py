@@ -124,6 +124,9 @@ def textures(scene: Scene) -> Textures:
         mottle = _mottle_map(np.random.default_rng(np.random.SeedSequence([scene.seed, 83])),
                              int(w * TEX_MM / MOTTLE_MM) + 1, int(h * TEX_MM / MOTTLE_MM) + 1,
                              scene.look.mottle, scene.look.mottle_mm)
+        if scene.look.marks > 0:
+            mottle += _marks_map(np.random.default_rng(np.random.SeedSequence([scene.seed, 89])),
+                                 mottle.shape[1], mottle.shape[0], scene.look.marks)
     return Textures(brush_a, brush_b, np.asarray(cv2.merge(planes), np.uint8), a0, b0,
                     np.asarray(cv2.merge(over), np.uint8) if over else None, rust, mottle)
 
@@ -141,6 +144,32 @@ def _mottle_map(rng: np.random.Generator, w: int, h: int, spread: float,
                                    k * scale_mm / MOTTLE_MM) for k in (1.0, 4.0)]
         n = sum(f / (f.std() + 1e-9) for f in fields)
         out.append(spread * n / (n.std() + 1e-9) - spread**2 / 2)
+    return np.asarray(cv2.merge(out), np.float32)
+
+
+def _marks_map(rng: np.random.Generator, w: int, h: int, per_100mm2: float) -> F32:
+    """Log-brightness of thin dark marks per sheet, (h, w, 2) at MOTTLE_MM texels: scratches
+    (1-8 mm long, 0.25 mm wide, any direction) and pits (0.1-0.4 mm radius), each 0.4-1.5
+    darker (log), ``per_100mm2`` of them per 100 mm^2 of each sheet's map."""
+    out = []
+    n = int(per_100mm2 * w * h * MOTTLE_MM**2 / 100.0)
+    for _ in range(2):
+        # Darkness x 100 in 8 bits: cv2 draws anti-aliased lines into 8-bit images only.
+        canvas = np.zeros((h, w), np.uint8)
+        for _ in range(n):
+            dark = int(round(100 * rng.uniform(0.4, 1.5)))
+            c = rng.uniform((0.0, 0.0), (w, h))
+            if rng.random() < 0.6:
+                ang = rng.uniform(0.0, np.pi)
+                half = rng.uniform(0.5, 4.0) / MOTTLE_MM * np.array([np.cos(ang), np.sin(ang)])
+                p0, p1 = (c - half) * 16, (c + half) * 16
+                cv2.line(canvas, tuple(int(v) for v in p0), tuple(int(v) for v in p1), dark,
+                         1, cv2.LINE_AA, 4)
+            else:
+                cv2.circle(canvas, tuple(int(v) for v in c * 16),
+                           int(round(rng.uniform(0.1, 0.4) / MOTTLE_MM * 16)), dark, -1,
+                           cv2.LINE_AA, 4)
+        out.append(-canvas.astype(np.float32) / 100.0)
     return np.asarray(cv2.merge(out), np.float32)
 
 
