@@ -148,9 +148,11 @@ def _mottle_map(rng: np.random.Generator, w: int, h: int, spread: float,
 
 
 def _marks_map(rng: np.random.Generator, w: int, h: int, per_100mm2: float) -> F32:
-    """Log-brightness of thin dark marks per sheet, (h, w, 2) at MOTTLE_MM texels: scratches
-    (1-8 mm long, 0.25 mm wide, any direction) and pits (0.1-0.4 mm radius), each 0.4-1.5
-    darker (log), ``per_100mm2`` of them per 100 mm^2 of each sheet's map."""
+    """Log-brightness of thin dark marks per sheet, (h, w, 2) at MOTTLE_MM texels.
+
+    Scratches (1-8 mm long, one texel wide, any direction) and pits (0.1-0.4 mm radius), each
+    0.4-1.5 darker (log), ``per_100mm2`` of them per 100 mm^2 of each sheet's map.
+    """
     out = []
     n = int(per_100mm2 * w * h * MOTTLE_MM**2 / 100.0)
     for _ in range(2):
