@@ -18,6 +18,10 @@ from controller.vision.seam_params import F64
 from controller.vision.seam_profiles import bilinear
 
 _MIN_STEP = 0.25  # relative brightness step that marks a sheet border
+#: How much further out than the outer line beside the gap :func:`border_goes_on` looks (px),
+#: and how near the straight border's course a step there must lie (px, along the seam).
+FAR_PX = (20.0, 40.0)
+FAR_TOL_PX = 6.0
 
 
 class Border(NamedTuple):
@@ -26,13 +30,14 @@ class Border(NamedTuple):
     ``k``: px along the seam where it meets the centreline, or None (no border); ``unsure``: a
     rival line is as well supported; ``slope``: px along per px across (the steps of line
     ``o`` lie at ``k + slope * o``); ``sides``: whether lines left (negative offsets) and right
-    of the gap step on it.
+    of the gap step on it; ``rounded``: read as two rounded plate corners, not a straight line.
     """
 
     k: float | None
     unsure: bool = False
     slope: float = 0.0
     sides: tuple[bool, bool] = (False, False)
+    rounded: bool = False
 
 
 def border_line(offs: tuple[float, ...], steps: list[list[float]],
@@ -74,7 +79,7 @@ def border_line(offs: tuple[float, ...], steps: list[list[float]],
     if best is not None:
         k_round = rounded_corners(offs, steps, w) if w is not None and best[0] > -4 else None
         if k_round is not None:
-            return Border(k_round, False, 0.0, (True, True))
+            return Border(k_round, False, 0.0, (True, True), True)
         rivals = [k for n, k in fits if n == best[0] and abs(k - best[1]) > 3.0]
         return Border(best[1], best[0] == -2 and bool(rivals), best[2],
                       (bool(np.any(best[3] < 0)), bool(np.any(best[3] > 0))))
@@ -82,6 +87,42 @@ def border_line(offs: tuple[float, ...], steps: list[list[float]],
     # sides. That is how a pen or soapstone line or a scratch ends inside a sheet; a joint ends
     # where a sheet does. Not an end (the caller calls it open).
     return Border(None)
+
+
+def border_goes_on(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, line: Border,
+                   outer_px: float, ks: F64) -> bool:
+    """Whether a straight border read beside the gap goes on across the sheets, further out.
+
+    ``line`` was read at the seam's end ``e_pt`` (px; ``tang``: the seam's direction outward) on
+    lines up to ``outer_px`` px each side of the centreline, a few px from the gap. There a
+    patch of rust or mottle a dozen px across, or the end of a pen line on a brushed sheet,
+    steps on every line at about one place, as a border does; a sheet's border runs on across
+    its sheet. So on each side that stepped, one of the lines :data:`FAR_PX` further out must
+    step (lasting or not: a T-corner's crossbar is a band) within :data:`FAR_TOL_PX` of the
+    border's course (``line.k + line.slope * offset``), read over ``ks`` (px along, as
+    :func:`side_steps`). A line that leaves the image is no evidence either way. True for no
+    border and for rounded corners (their edges curve away: no straight course to follow).
+    """
+    if line.k is None or line.rounded:
+        return True
+    H, W = grey.shape
+    nrm = np.array([-tang[1], tang[0]])
+    for side, stepped in zip((-1.0, 1.0), line.sides, strict=True):
+        if not stepped:
+            continue
+        looked = False
+        for extra in FAR_PX:
+            o = side * (outer_px + extra)
+            q = e_pt + np.outer(line.k + line.slope * o + ks, tang) + o * nrm
+            if not np.all((q >= 0) & (q <= np.array([W - 1, H - 1]))):
+                continue
+            looked = True
+            if any(abs(k) <= FAR_TOL_PX for k, _ in side_steps(grey, lut, q, ks)):
+                break
+        else:
+            if looked:
+                return False
+    return True
 
 
 def rounded_corners(offs: tuple[float, ...], steps: list[list[float]], w: float) -> float | None:

@@ -3,9 +3,9 @@
 :func:`end_offset` reads each side of the gap on lines parallel to the centreline and finds where a
 sheet border crosses them (a straight border: its crossings lie on one line); :func:`measure_tails`
 measures the last stretch before an end again with short profiles, which a border does not reach.
-An end point that ran on past the sheets (over the table, or past two rounded corners) is read
-again from before it (:func:`_read_back`, :func:`_backed_off`); whether the gap goes on beyond
-a patch on the joint is :func:`controller.vision.seam_resume.gap_resumes`.
+An end point that ran on past the sheets (over the table, past two rounded corners) is read again
+from before it (:func:`_read_back`, :func:`_backed_off`); whether the gap goes on beyond a patch
+on the joint is :func:`controller.vision.seam_resume.gap_resumes`.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from controller.vision.seam_border import (
     Border,
+    border_goes_on,
     border_line,
     gap_reaches_image_border,
     side_crossings,
@@ -237,7 +238,9 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
     steps = [[k for k, lasting in m if lasting] for m in marked]
     line = border_line(offs, steps, w_med)
     line = _band_before([[k for k, _ in m] for m in marked], offs, w_med, line)
-    k_line, unsure = line.k, line.unsure
+    # A border seen beside the gap only (a mottle patch, a pen line's end) is not a sure end.
+    k_line = line.k
+    unsure = line.unsure or not border_goes_on(grey, lut, e_pt, tang, line, offs[-1], _LINE_KS)
     outer_only = not steps[1] and not steps[3]
     if k_line is not None and not all(line.sides) and not _other_side_ends(grey, lut, e_pt, tang,
                                                                           line, offs):
@@ -377,12 +380,10 @@ def _sheets_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
 
 _FAR_PX = 48.0  # beside the joint, past the half width of a tack bead
 # Image needed after a step beside the joint for it to count as lasting: what side_steps reads
-# on each side of a step (6 px). Was 20 px: a sheet border 10-30 px from the image edge was then
-# no evidence, and the end, read right, was called the image border (wide easy tuning 10188
-# view 1, 10186 view 1, hard 10081 view 0: wrong end kinds at confidence 0.8-1.0).
+# each side of a step. Was 20 px: a border 10-30 px from the image edge was no evidence (wide
+# easy tuning 10188 v1, 10186 v1, hard 10081 v0: called the image border at 0.8-1.0).
 _ROOM_PX = 6.0
-# Room needed beyond a sheet-border end to tell it from a tack weld: a bead (up to ~80 px in the
-# dry run's and the photographs' views) and a run of the gap beyond it.
+# Room beyond a sheet-border end to tell it from a tack weld: a bead (up to ~80 px) and a run.
 _VERIFY_PX = 80.0 + RESUME_RUN_PX
 
 
