@@ -190,10 +190,7 @@ _LINE_KS = np.arange(-28.0, 20.01, 0.5)  # where an end's lines are read: px alo
 
 def end_lines(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: float
               ) -> tuple[tuple[float, ...], list[list[tuple[float, bool]]]]:
-    """The five lines an end is read on (:func:`_end_at`): offsets across (px), steps on each.
-
-    Two each side of a gap ``w_med`` px wide and its centreline; steps as ``side_steps`` gives.
-    """
+    """The lines an end is read on: offsets (px; the centreline, two each side), steps on each."""
     nrm = np.array([-tang[1], tang[0]])
     q = e_pt + np.outer(_LINE_KS, tang)
     delta = w_med / 2 + 2.5
