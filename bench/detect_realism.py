@@ -115,17 +115,18 @@ def _look_alike(grey: NDArray[np.uint8], pts: F64, nrm: F64, width_px: float) ->
     ``width_px`` + :data:`BESIDE_PX` each side; places whose profile leaves the image not
     counted; NaN where none is left."""
     p = DetectParams()
+    lut = linear_lut(p.gamma)
     h, w = grey.shape
+    reach = p.half_width_px + 1.0  # a profile's half length and its bilinear neighbour
     passed, looked = 0, 0
     for d in BESIDE_PX:
         for sign in (-1.0, 1.0):
             q = pts + sign * (width_px + d) * nrm
-            reach = p.half_width_px + 1.0
             inside = ((q[:, 0] >= reach) & (q[:, 0] <= w - 1 - reach)
                       & (q[:, 1] >= reach) & (q[:, 1] <= h - 1 - reach))
             if not inside.any():
                 continue
-            fit = fit_at(grey, linear_lut(p.gamma), q[inside], nrm[inside], p)
+            fit = fit_at(grey, lut, q[inside], nrm[inside], p)
             passed += int(fit["valid"].sum())
             looked += int(inside.sum())
     return passed / looked if looked else float("nan")
