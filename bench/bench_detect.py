@@ -523,6 +523,21 @@ def _count_table(title: str, first: str, cells: dict[str, dict[str, int]], total
     return out
 
 
+def _reliability_lines(rel: dict[str, list[dict[str, Any]]]) -> list[str]:
+    """Markdown lines of the reliability table, a column per part; none for a run without any
+    non-classic view (the classic set is not counted in it)."""
+    if not rel:
+        return []
+    out = ["", "Reliability (ours, single views of the wide and pen sets; any other set in a "
+           "column of its own): share of returned seams found per confidence bin.", "",
+           "| confidence | " + " | ".join(rel) + " |", "|---|" + "---|" * len(rel)]
+    for i, lo_hi in enumerate(BINS[:-1]):
+        cells = [f"{b['found']}/{b['n']} found, {b['wrong']} wrong" if b["n"] else "-"
+                 for b in (rel[part][i] for part in rel)]
+        out.append(f"| {lo_hi:.2f}-{min(BINS[i + 1], 1.0):.2f} | " + " | ".join(cells) + " |")
+    return out
+
+
 def markdown(rep: dict[str, Any]) -> str:
     """The README tables of a report."""
 
@@ -557,16 +572,7 @@ def markdown(rep: dict[str, Any]) -> str:
                   "pairs with both views split, by the reading the two views agreed on "
                   "(core: a shadow beside the gap; band: a cut face inside it): " + "; ".join(
                       f"{k} {n} views, pairs {r or '-'}" for k, (n, r) in split.items()) + "."]
-    lines += ["", "Reliability (ours, single views of the wide and pen sets; any other set in a "
-              "column of its own): share of returned seams found per confidence bin.", "",
-              "| confidence | " + " | ".join(rep["reliability"]) + " |",
-              "|---|" + "---|" * len(rep["reliability"])]
-    for i, lo_hi in enumerate(BINS[:-1]):
-        cells = []
-        for split in rep["reliability"]:
-            b = rep["reliability"][split][i]
-            cells.append(f"{b['found']}/{b['n']} found, {b['wrong']} wrong" if b["n"] else "-")
-        lines.append(f"| {lo_hi:.2f}-{min(BINS[i + 1], 1.0):.2f} | " + " | ".join(cells) + " |")
+    lines += _reliability_lines(rep["reliability"])
     for key, title, first, total, rest in (
             ("by_look", "per look (single views", "look", "views", ("refused", "wrong")),
             ("by_way", "per way (returned single views", "way", "returned", ("wrong",)),

@@ -86,7 +86,8 @@ def joint_stats(grey: NDArray[np.uint8], line_px: F64, width_px: float,
     out = [-(4 * h + d) for d in SHEETS_PX[::-1]] + [4 * h + d for d in SHEETS_PX]
     offs = np.concatenate([ACROSS * h, out])
     P = pts[keep][:, None, :] + offs[None, :, None] * nrm[keep][:, None, :]
-    lut = linear_lut(DetectParams().gamma)
+    prm = DetectParams()
+    lut = linear_lut(prm.gamma)
     val, ok = bilinear(grey, lut, P[..., 0].ravel(), P[..., 1].ravel())
     val = np.where(ok, val, np.nan).reshape(len(keep), len(offs))
     n = len(ACROSS)
@@ -106,16 +107,15 @@ def joint_stats(grey: NDArray[np.uint8], line_px: F64, width_px: float,
             "along": float(np.median(nv.std(axis=0))),
             "sheet_cv": float(np.median(val[:, n:].std(axis=0) / (val[:, n:].mean(axis=0)
                                                                   + 1e-3))),
-            "look_alike": _look_alike(grey, pts[keep], nrm[keep], width_px),
+            "look_alike": _look_alike(grey, lut, prm, pts[keep], nrm[keep], width_px),
             "width_px": float(width_px)}
 
 
-def _look_alike(grey: NDArray[np.uint8], pts: F64, nrm: F64, width_px: float) -> float:
-    """Share of gap profiles passed on lines parallel to the joint ``pts`` (px, normals ``nrm``)
-    ``width_px`` + :data:`BESIDE_PX` each side; places whose profile leaves the image not
-    counted; NaN where none is left."""
-    p = DetectParams()
-    lut = linear_lut(p.gamma)
+def _look_alike(grey: NDArray[np.uint8], lut: F64, p: DetectParams, pts: F64, nrm: F64,
+                width_px: float) -> float:
+    """Share of gap profiles (``fit_at`` with ``p``, ``lut``) passed on lines parallel to the
+    joint ``pts`` (px, normals ``nrm``) ``width_px`` + :data:`BESIDE_PX` each side; places
+    whose profile leaves the image not counted; NaN where none is left."""
     h, w = grey.shape
     reach = p.half_width_px + 1.0  # a profile's half length and its bilinear neighbour
     passed, looked = 0, 0

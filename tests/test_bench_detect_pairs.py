@@ -104,3 +104,19 @@ def test_sets_other_than_wide_and_pen_are_counted_in_rows_of_their_own() -> None
     ways = bench_detect.by_way({**wide, **rough})
     assert ways["profiles/tuning"] == {"returned": 1, "found": 1, "wrong": 0}
     assert ways["profiles/rough tuning"] == {"returned": 1, "found": 0, "wrong": 1}
+
+
+def test_the_reliability_table_has_a_column_per_part_and_none_without_one() -> None:
+    rows = {"wide/easy/tuning": [{"family": "plain", "views": [
+        {"ours": {"result": "found", "confidence": 0.97}}]}],
+        "rough/mixed/tuning": [{"family": "plain", "views": [
+            {"ours": {"result": "wrong", "confidence": 0.55}}]}]}
+    rel = {part: bench_detect.reliability([r for k, rs in rows.items() for r in rs
+                                           if bench_detect.part_of(k) == part])
+           for part in ("tuning", "rough tuning")}
+    lines = bench_detect._reliability_lines(rel)
+    assert lines[3] == "| confidence | tuning | rough tuning |" and lines[4] == "|---|---|---|"
+    assert "| 0.95-0.99 | 1/1 found, 0 wrong | - |" in lines
+    assert "| 0.50-0.60 | - | 0/1 found, 1 wrong |" in lines
+    # A run of the classic set alone: no table (it was a header without columns).
+    assert bench_detect._reliability_lines({}) == []
