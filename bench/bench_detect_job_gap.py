@@ -29,6 +29,7 @@ from typing import Any
 from bench.detect_cases import FULL, case_cached, load_case, plan
 from bench.detect_ways import detect_one_way, way_counts, write_and_print
 from controller.geometry.camera_model import default_camera
+from controller.vision.seam_centreline import TOO_WIDE
 from controller.vision.seam_scale import params_for_scale
 
 WAYS = ("defaults", "scaled", "job gap")
@@ -61,6 +62,27 @@ def summary(rows: list[dict[str, Any]], way: str) -> dict[str, int]:
                                   in (v["error"] or "") for v in views)
     out["refused_two_readings"] = sum(v["result"] == "refused" and "one image cannot tell"
                                       in (v["error"] or "") for v in views)
+    out["refused_too_wide"] = sum(_too_wide(v) for v in views)
+    return out
+
+
+def _too_wide(view: dict[str, Any]) -> bool:
+    """Whether a view was refused with the advice to state the gap: a candidate's profiles
+    fitted a band wider than the scale's widest gap (``seam_centreline._too_wide``)."""
+    return view["result"] == "refused" and TOO_WIDE in (view["error"] or "")
+
+
+
+
+def advice_taken(rows: list[dict[str, Any]]) -> dict[str, int]:
+    """What the job's gap gives on the views the defaults refused with the advice to state it:
+    ``{"advised": n, "found": .., "wrong": .., "refused": ..}`` ("job gap" way)."""
+    out = {"advised": 0, "found": 0, "wrong": 0, "refused": 0}
+    for r in rows:
+        for d, j in zip(r["defaults"]["views"], r["job gap"]["views"], strict=True):
+            if _too_wide(d):
+                out["advised"] += 1
+                out[j["result"]] += 1
     return out
 
 
@@ -87,10 +109,17 @@ def main(argv: list[str] | None = None) -> int:
         for fam in ("all", "plain", "shop", "closeup"):
             sel = [r for r in rows if r["case"][2] == split and fam in ("all", r["family"])]
             report["summary"][f"{split}/{fam}"] = {w: summary(sel, w) for w in WAYS}
+        report[f"advice/{split}"] = advice_taken([r for r in rows if r["case"][2] == split])
     write_and_print(args.out, report, rows,
                     f"{len(cases)} cases in {report['time_s']:.0f} s; job gap = true gap x "
                     f"{args.range[0]:g}-{args.range[1]:g}", ("part/look", 18), 9,
-                    [("band", "refused_for_band", 5), ("2read", "refused_two_readings", 5)])
+                    [("band", "refused_for_band", 5), ("2read", "refused_two_readings", 5),
+                     ("wide", "refused_too_wide", 5)])
+    for split in ("tuning", "heldout"):
+        a = report[f"advice/{split}"]
+        print(f"{split}: {a['advised']} views refused with defaults for a band wider than the "
+              f"widest gap (advice: state the gap); with the job's gap {a['found']} found, "
+              f"{a['wrong']} wrong, {a['refused']} refused")
     return 0
 
 

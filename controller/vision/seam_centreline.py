@@ -9,6 +9,8 @@ scored, or rejected with the reason.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -31,6 +33,29 @@ _MAX_PATCHES = 10  # covered patches (tack welds) crossed per candidate
 #: line crossing an S-bent seam (pen hard tuning 50054) left a hole whose 160 px quadratic on
 #: each side missed them by 3.5 px and bridged it 5 px off.
 BRIDGE_MISFIT_PX = 2.5
+
+
+#: What a refusal says of a band wider than the scale's widest gap (seam_detect reads it).
+TOO_WIDE = "wider than the widest gap at this scale"
+#: Share of a candidate's profiles fitting a band wider than ``max_gap_px`` (and passing every
+#: other test) from which a refusal says so (:func:`_too_wide`).
+WIDE_SHARE = 0.25
+
+
+def _too_wide(fit: dict[str, Any], p: DetectParams) -> str:
+    """What a refusal adds where the profiles fit a band wider than the scale's widest gap.
+
+    Measured again at the band's own scale, such bands were as often a shadow beside a gap or
+    a T-corner's crossbar as a wide gap (README, *Measured and not kept, eighteenth session*):
+    the detector does not widen its scale on its own; the working distance and the joint's
+    gap do (:func:`controller.vision.seam_scale.params_for_scale`). "" otherwise.
+    """
+    too_wide = fit["too_wide"]
+    if not too_wide.size or too_wide.mean() < WIDE_SHARE:
+        return ""
+    w = float(np.median(fit["width"][too_wide]))
+    return (f"; {100 * too_wide.mean():.0f} % of them fit a dark band {w:.0f} px wide, "
+            f"{TOO_WIDE} ({p.max_gap_px:.0f} px)")
 
 
 def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
@@ -67,7 +92,7 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
                                bridge_short=short)
     if run is None or (run[1] - run[0]) * p.step_px < p.min_length_px * 0.5:
         c.why_rejected = (f"candidate of {c.length_px:.0f} px has no long run of gap profiles "
-                          f"({int(valid.sum())} of {len(valid)} good)")
+                          f"({int(valid.sum())} of {len(valid)} good){_too_wide(fit, p)}")
         return
     i0, i1 = run
     sel = np.arange(i0, i1 + 1)

@@ -159,7 +159,8 @@ def fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParam
     """Fit the two-edge gap model to profiles across the curve at ``pts`` along normals ``nrm``.
 
     Per profile: ``centre`` (px), ``width`` (px), relative ``depth``, ``rms`` and ``contrast``
-    (linear radiance), ``valid``; and what :mod:`controller.vision.seam_shadow` refits: the
+    (linear radiance), ``valid``, ``too_wide`` (every test passed but the widest gap,
+    ``p.max_gap_px``); and what :mod:`controller.vision.seam_shadow` refits: the
     ``normal``, the model ``params`` (L, R, F, c, w, s) and the ``profiles`` (samples every
     ``p.profile_step_px`` from -half width to +half width).
     """
@@ -176,10 +177,11 @@ def fit_at(grey: NDArray[np.uint8], lut: F64, pts: F64, nrm: F64, p: DetectParam
     centre = pts + nrm * cc[:, None]
     in_img = ((centre[:, 0] >= -0.5) & (centre[:, 0] <= W - 0.5)
               & (centre[:, 1] >= -0.5) & (centre[:, 1] <= H - 0.5))
-    valid = ((depth > p.min_profile_depth) & (np.abs(cc) < 8.0) & (w > 0.4)
-             & (w < p.max_gap_px) & (s < 4.0) & (rms < 0.35 * (side - F) + 0.004) & in_img
-             & inside[:, inside.shape[1] // 2])
-    return {"valid": valid, "centre": centre, "depth": depth, "width": w, "rms": rms,
+    fits = ((depth > p.min_profile_depth) & (np.abs(cc) < 8.0) & (w > 0.4) & (s < 4.0)
+            & (rms < 0.35 * (side - F) + 0.004) & in_img & inside[:, inside.shape[1] // 2])
+    valid = fits & (w < p.max_gap_px)
+    return {"valid": valid, "too_wide": fits & ~valid, "centre": centre, "depth": depth,
+            "width": w, "rms": rms,
             "contrast": side - F, "left": L, "right": R, "normal": nrm, "params": prm,
             "profiles": prof}
 
@@ -193,7 +195,8 @@ def track_on(grey: NDArray[np.uint8], lut: F64, fit: dict[str, Any], p: DetectPa
     ``chunk`` samples are good, so a seam that reaches a sheet or image border (profiles fail
     there) stops at once.
     """
-    keys = ("valid", "centre", "depth", "width", "rms", "contrast", "normal", "params", "profiles")
+    keys = ("valid", "too_wide", "centre", "depth", "width", "rms", "contrast", "normal", "params",
+            "profiles")
     if not at_end:
         fit = {k: fit[k][::-1] for k in keys}
     n_steps = 0
