@@ -42,6 +42,7 @@ from bench.detect_cases import case_cached, case_list, load_case, view_truth
 from bench.detect_score import dist_to_polyline
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
+from controller.vision.seam_centreline import TOO_WIDE
 from controller.vision.seam_decision import rate_confidence
 from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_params import Candidate, DetectParams
@@ -69,8 +70,10 @@ def on_joint(points: NDArray[np.float64] | None, truth_px: NDArray[np.float64],
 
 
 def _reason(text: str) -> str:
-    """A rejection reason with its numbers taken out, cut at its first parenthesis."""
-    return re.sub(r"-?\d+(\.\d+)?", "#", text.split(" (")[0]).strip()
+    """A rejection reason with its numbers taken out, cut at its first parenthesis; a band
+    wider than the scale's widest gap (``seam_centreline.TOO_WIDE``) said after it."""
+    short = re.sub(r"-?\d+(\.\d+)?", "#", text.split(" (")[0]).strip()
+    return short + (f": a band {TOO_WIDE}" if TOO_WIDE in text else "")
 
 
 def where_lost(stages: list[list[Candidate]], truth_px: NDArray[np.float64]) -> tuple[str, str]:

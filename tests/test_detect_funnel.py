@@ -39,6 +39,11 @@ def test_the_first_stage_with_the_joint_names_the_verdict_without_its_numbers() 
         "inside the sheet")
     assert where_lost([[pen], [pen, joint]], TRUTH) == (
         "finer grid", "candidate of # px has no long run of gap profiles")
+    joint.why_rejected += ("; 95 % of them fit a dark band 19 px wide, wider than the widest gap "
+                           "at this scale (16 px)")
+    assert where_lost([[pen], [pen, joint]], TRUTH) == (
+        "finer grid", "candidate of # px has no long run of gap profiles: a band wider than the "
+        "widest gap at this scale")
     strong = _cand(300.0)
     strong.valid_frac, strong.depth, strong.end_kinds = 1.0, 0.6, ("sheet border", "image border")
     assert where_lost([[pen, strong], [], []], TRUTH) == (
