@@ -16,6 +16,9 @@ The job's gap is the scene's true gap times ``--range`` (default 0.5-1.5: a nomi
 +-50 %), px/mm the view's true gap in px over its gap in mm (the scale at the seam; the cycle
 uses ``fx / Z`` at the nominal centre). Views are scored by ``bench.detect_score`` and pairs
 located as ``bench.bench_detect`` does (no clipping), so the counts compare with its report.
+Column ``wide``: views refused saying a line fitted a band wider than the scale's widest gap,
+with the advice to state the gap (``seam_detect._scale_advice``); for each part, a last line
+says what the job's gap gives on the views the defaults refused so (:func:`advice_taken`).
 """
 
 from __future__ import annotations
@@ -70,8 +73,6 @@ def _too_wide(view: dict[str, Any]) -> bool:
     """Whether a view was refused with the advice to state the gap: a candidate's profiles
     fitted a band wider than the scale's widest gap (``seam_centreline._too_wide``)."""
     return view["result"] == "refused" and TOO_WIDE in (view["error"] or "")
-
-
 
 
 def advice_taken(rows: list[dict[str, Any]]) -> dict[str, int]:
