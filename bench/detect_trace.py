@@ -3,7 +3,7 @@
 Usage (from the repository root, on the render cache of ``bench.bench_detect``)::
 
     .venv/bin/python -m bench.detect_trace SET DIFFICULTY SEED VIEW [--part tuning|heldout]
-        [--ends]
+        [--ends] [--scales]
 
 e.g. ``.venv/bin/python -m bench.detect_trace wide easy 10029 1 --ends``. Prints the truth (the
 joint's ends and their kinds, the gap's width, the look family, covered spans), the detector's
@@ -16,6 +16,8 @@ rival and why it was refused. With ``--ends``, each end of the joint's candidate
 five lines along the seam (two each side of the gap and its centreline, px along from the end),
 the border line they give (where it meets the centreline, which sides step), the end read
 (:func:`controller.vision.seam_ends.end_offset`) and whether a wedge of table is read there.
+With ``--scales``, the seam the search reads on the image shrunk by each factor the look at
+the image shrunk uses (:func:`shrunk_readings`; that look is not traced otherwise).
 
 What :mod:`bench.detect_funnel` counts over a part, this shows for one view. The default part is
 ``tuning``: reading the held-out part's failures one by one is how a rule gets fitted to it.
@@ -24,6 +26,7 @@ What :mod:`bench.detect_funnel` counts over a part, this shows for one view. The
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from typing import Any
 
@@ -33,9 +36,10 @@ from numpy.typing import NDArray
 
 from bench.detect_cases import case_cached, load_case, view_truth
 from bench.detect_funnel import STAGES, joint_candidate, on_joint
-from bench.detect_score import dist_to_polyline
+from bench.detect_score import dist_to_polyline, score_view
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
+from controller.vision import seam_detect, seam_smaller
 from controller.vision.seam_border import border_line
 from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_ends import end_lines, end_offset
@@ -92,6 +96,29 @@ def end_reading(grey: NDArray[np.uint8], c: Candidate, end: int, p: DetectParams
             "end": (round(k, 1), kind), "wedge": wedge_end(grey, lut, e_pt, tang, w)}
 
 
+def shrunk_readings(grey: NDArray[np.uint8], truth: dict[str, Any],
+                    p: DetectParams | None = None) -> list[str]:
+    """One line per shrink factor the look at the image shrunk reads the seam at
+    (:mod:`controller.vision.seam_smaller`: ``SCALE``, ``CONFIRM``, ``ALT_CONFIRM``): the
+    seam the detector's search finds on ``grey`` shrunk by it, scored against ``truth``
+    (:func:`bench.detect_score.score_view`), or that it finds none. What the look then keeps
+    (the full-size blur, the confirmation) is :func:`seam_smaller.smaller_look`'s."""
+    p = p or DetectParams()
+    look = functools.partial(seam_detect._detect_in, trace=None, box=None)
+    lines = []
+    for f in (seam_smaller.SCALE, seam_smaller.CONFIRM, *seam_smaller.ALT_CONFIRM):
+        det = seam_smaller._found_at(grey, float(f), None, p, look, None)
+        if det is None:
+            lines.append(f"shrunk by {f:g}: no seam found")
+            continue
+        sc = score_view(det.points_px, truth, list(det.end_kinds))
+        why = f" ({sc['why']})" if "why" in sc else ""
+        lines.append(f"shrunk by {f:g}: {sc['result']}{why}, ends {det.end_kinds[0]} / "
+                     f"{det.end_kinds[1]}, confidence {det.confidence:.2f}, "
+                     f"{sc.get('rms', float('nan')):.1f} px RMS")
+    return lines
+
+
 def main(argv: list[str] | None = None) -> int:
     """Print the trace of one cached view; 0, or 1 when the view is not in the cache."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -101,6 +128,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("view", type=int, choices=(0, 1))
     ap.add_argument("--part", choices=("tuning", "heldout"), default="tuning")
     ap.add_argument("--ends", action="store_true", help="read the joint's open ends again")
+    ap.add_argument("--scales", action="store_true",
+                    help="the seam read on the image shrunk by each factor of the look at the "
+                    "image shrunk (not traced otherwise)")
     a = ap.parse_args(argv)
     case = (a.set, a.difficulty, a.part, a.seed)
     if not case_cached(case):
@@ -138,6 +168,11 @@ def main(argv: list[str] | None = None) -> int:
         for end in ends_to_read(found[1]):
             print(f"open end {end} of the joint's candidate ({found[0]}): "
                   f"{end_reading(grey, found[1], end, DetectParams())}")
+    if a.scales:
+        grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+        truth["image_size"] = (grey.shape[1], grey.shape[0])
+        for line in shrunk_readings(grey, truth):
+            print(line)
     return 0
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.detect_trace import candidate_line, end_reading, ends_to_read, main
+from bench.detect_trace import candidate_line, end_reading, ends_to_read, main, shrunk_readings
 from controller.vision.seam_params import Candidate, DetectParams
 
 TRUTH = np.column_stack([np.linspace(0, 1000, 251), np.full(251, 300.0)])
@@ -63,3 +63,17 @@ def test_a_view_not_in_the_cache_is_said_with_what_to_run(monkeypatch, tmp_path,
     assert main(["wide", "easy", "10012", "0"]) == 1
     err = capsys.readouterr().err
     assert "not in the render cache" in err and "bench.bench_detect --render-only" in err
+
+
+def test_the_shrunk_look_s_scales_are_read_and_scored() -> None:
+    # A drawn 20 px soft gap (tests/drawn_plates.py), as the look at the image shrunk is made for.
+    from test_seam_smaller import ENDS, _plates
+
+    img = _plates(blur_px=2.8)
+    truth = {"seam_px": np.array(ENDS), "end_kinds": ["joint_end", "joint_end"], "gap_px": 20.0,
+             "gap_mm": 2.0, "ragged_mm": 0.0, "end_tol_px": 0.0, "pens": [], "family": "closeup",
+             "image_size": (img.shape[1], img.shape[0])}
+    lines = shrunk_readings(img, truth)
+    assert [ln.split(":")[0] for ln in lines] == [
+        "shrunk by 2", "shrunk by 3", "shrunk by 1.5", "shrunk by 2.5", "shrunk by 4"]
+    assert lines[0].startswith("shrunk by 2: found, ends joint_end / joint_end, confidence")
