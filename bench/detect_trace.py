@@ -161,15 +161,14 @@ def main(argv: list[str] | None = None) -> int:
         for c in cands:
             print("  " + candidate_line(c, tp))
     found = joint_candidate(stages, tp)
+    grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
     if a.ends and found is not None:
-        grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
         if found[1].points is None:
             print(f"the joint's candidate ({found[0]}) was refused before its ends were read")
         for end in ends_to_read(found[1]):
             print(f"open end {end} of the joint's candidate ({found[0]}): "
                   f"{end_reading(grey, found[1], end, DetectParams())}")
     if a.scales:
-        grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
         truth["image_size"] = (grey.shape[1], grey.shape[0])
         for line in shrunk_readings(grey, truth):
             print(line)
