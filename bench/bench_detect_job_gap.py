@@ -17,7 +17,7 @@ The job's gap is the scene's true gap times ``--range`` (default 0.5-1.5: a nomi
 uses ``fx / Z`` at the nominal centre). Views are scored by ``bench.detect_score`` and pairs
 located as ``bench.bench_detect`` does (no clipping), so the counts compare with its report.
 Column ``wide``: views refused saying a line fitted a band wider than the scale's widest gap,
-with the advice to state the gap (``seam_detect._scale_advice``); for each part, a last line
+with the advice to state the gap (``seam_centreline.scale_advice``); for each part, a last line
 says what the job's gap gives on the views the defaults refused so (:func:`advice_taken`).
 """
 

@@ -26,7 +26,6 @@ What :mod:`bench.detect_funnel` counts over a part, this shows for one view. The
 from __future__ import annotations
 
 import argparse
-import functools
 import sys
 from typing import Any
 
@@ -104,10 +103,9 @@ def shrunk_readings(grey: NDArray[np.uint8], truth: dict[str, Any],
     (:func:`bench.detect_score.score_view`), or that it finds none. What the look then keeps
     (the full-size blur, the confirmation) is :func:`seam_smaller.smaller_look`'s."""
     p = p or DetectParams()
-    look = functools.partial(seam_detect._detect_in, trace=None, box=None)
     lines = []
     for f in (seam_smaller.SCALE, seam_smaller.CONFIRM, *seam_smaller.ALT_CONFIRM):
-        det = seam_smaller._found_at(grey, float(f), None, p, look, None)
+        det = seam_smaller._found_at(grey, float(f), None, p, seam_detect.search, None)
         if det is None:
             lines.append(f"shrunk by {f:g}: no seam found")
             continue

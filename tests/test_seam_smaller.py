@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import json
 from dataclasses import replace
 from pathlib import Path
@@ -42,8 +41,7 @@ def _plates(blur_px: float, seed: int = 3) -> np.ndarray:
 
 def _look_shrunk(img: np.ndarray) -> SeamDetection | None:
     p = DetectParams()
-    look = functools.partial(seam_detect._detect_in, trace=None, box=None)
-    return smaller_look(img, None, p, look, None)
+    return smaller_look(img, None, p, seam_detect.search, None)
 
 
 def test_a_wide_defocused_gap_is_found_on_the_image_shrunk() -> None:

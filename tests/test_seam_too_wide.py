@@ -1,7 +1,7 @@
 """A candidate whose profiles fit a band wider than the scale's widest gap is refused saying so,
 and the detector's refusal says to state the working distance and the joint's gap; with them the
 same band is measured (controller.vision.seam_centreline._too_wide,
-controller.vision.seam_detect._scale_advice, controller.vision.seam_scale.params_for_scale)."""
+controller.vision.seam_centreline.scale_advice, controller.vision.seam_scale.params_for_scale)."""
 
 from __future__ import annotations
 

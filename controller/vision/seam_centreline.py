@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from controller.errors import SeamguideError
 from controller.vision.scipy_equivalents import CubicSpline, savgol_filter
 from controller.vision.seam_ends import end_offset, measure_tails
 from controller.vision.seam_params import (
@@ -56,6 +57,30 @@ def _too_wide(fit: dict[str, Any], p: DetectParams) -> str:
     w = float(np.median(fit["width"][too_wide]))
     return (f"; {100 * too_wide.mean():.0f} % of them fit a dark band {w:.0f} px wide, "
             f"{TOO_WIDE} ({p.max_gap_px:.0f} px)")
+
+
+def scale_advice(exc: SeamguideError, traced: list[list[Candidate]], p: DetectParams
+                  ) -> SeamguideError:
+    """``exc`` saying what to give where a candidate fitted a band wider than the scale takes.
+
+    The detector's pixel scales (``p.max_gap_px``) are the defaults' unless the working
+    distance and the joint's gap set them (:func:`controller.vision.seam_scale.params_for_scale`);
+    a gap wider than that is refused by the profiles (:data:`TOO_WIDE`), and the
+    refusal should say how to measure it. Returns ``exc`` itself where no candidate did.
+    """
+    n = len({id(c) for look in traced for c in look if TOO_WIDE in c.why_rejected})
+    if not n:
+        return exc
+    if p.max_gap_px > DetectParams().max_gap_px:  # the scales were set already
+        todo = ("if the joint's gap is that wide, check the working distance and the widest "
+                "gap given (--distance-mm, --gap-mm; in a job, [seam] gap_mm)")
+    else:
+        todo = ("if the joint's gap is that wide, give the working distance and the joint's "
+                "gap (detect --calibration C --distance-mm Z --gap-mm LO HI; in a job, its "
+                "[seam] gap_mm) to measure it")
+    return type(exc)(f"{exc}; {n} line(s) looked at fit a dark band {TOO_WIDE} "
+                     f"({p.max_gap_px:.0f} px), a wide gap or a gap with a shadow or a mark "
+                     f"beside it: {todo}", **exc.details)
 
 
 def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,

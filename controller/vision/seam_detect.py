@@ -63,9 +63,9 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controller.errors import AmbiguousSeam, InputError, SeamguideError, SeamNotFound
+from controller.errors import AmbiguousSeam, InputError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
-from controller.vision.seam_centreline import TOO_WIDE, refine
+from controller.vision.seam_centreline import refine, scale_advice
 from controller.vision.seam_coarse import (
     coarse_candidates,
     drop_duplicates,
@@ -116,7 +116,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     (two candidates of similar strength, or a second line beside the best one at a pen line's
     distance), :class:`InputError` (not a uint8 image, wrong size, bad ROI or hint). A refusal
     where a line's profiles fitted a dark band wider than ``p.max_gap_px`` says so and what to
-    give to measure a gap that wide (:func:`_scale_advice`).
+    give to measure a gap that wide (:func:`controller.vision.seam_centreline.scale_advice`).
     ``trace``: when given, every list of candidates a choice is made over is appended to it, in
     order (the first way's; with the finer grid's; the valley paths'), ROI px: what
     ``bench.detect_funnel`` reads to say where a joint was lost (the full-size search only; the
@@ -139,20 +139,19 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         return _detect_in(sub, hint_arr, p, straighten, traced, (x0, y0, x1, y1))
     except (SeamNotFound, AmbiguousSeam) as exc:
         if not p.smaller:
-            raise _scale_advice(exc, traced, p) from None
+            raise scale_advice(exc, traced, p) from None
         # A gap wider and softer than the full-size search measures (a close-up): the same
         # search on the image shrunk (seam_smaller), kept only where it holds at two scales.
-        look = functools.partial(_detect_in, trace=None, box=None)
-        small = smaller_look(sub, hint_arr, p, look, straighten)
+        small = smaller_look(sub, hint_arr, p, search, straighten)
         if small is None:
-            raise _scale_advice(exc, traced, p) from None
+            raise scale_advice(exc, traced, p) from None
         if isinstance(exc, AmbiguousSeam):
             # Two lines the full-size search could not choose between (it measures a close-up's
             # wide gap in pieces): the shrunk search may choose, but only one of those two.
             two = [np.asarray(exc.details[k], np.float64) - [x0, y0]
                    for k in ("best_px", "second_px") if k in exc.details]
             if not one_of(small, two):
-                raise _scale_advice(exc, traced, p) from None
+                raise scale_advice(exc, traced, p) from None
             why = str(exc).split("; refusing")[0]
             small = replace(small, reasons=[f"at full size: {why}; the search on the image "
                                             "shrunk took this one of the two",
@@ -160,28 +159,13 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         return moved(small, 1.0, (x0, y0))
 
 
-def _scale_advice(exc: SeamguideError, traced: list[list[Candidate]], p: DetectParams
-                  ) -> SeamguideError:
-    """``exc`` saying what to give where a candidate fitted a band wider than the scale takes.
+def search(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
+           straighten: Straighten | None) -> SeamDetection:
+    """The detector's search in ``sub`` alone, untraced: results and errors in px of ``sub``.
 
-    The detector's pixel scales (``p.max_gap_px``) are the defaults' unless the working
-    distance and the joint's gap set them (:func:`controller.vision.seam_scale.params_for_scale`);
-    a gap wider than that is refused by the profiles (``seam_centreline.TOO_WIDE``), and the
-    refusal should say how to measure it. Returns ``exc`` itself where no candidate did.
+    What :func:`controller.vision.seam_smaller.smaller_look` runs on the image shrunk.
     """
-    n = len({id(c) for look in traced for c in look if TOO_WIDE in c.why_rejected})
-    if not n:
-        return exc
-    if p.max_gap_px > DetectParams().max_gap_px:  # the scales were set already
-        todo = ("if the joint's gap is that wide, check the working distance and the widest "
-                "gap given (--distance-mm, --gap-mm; in a job, [seam] gap_mm)")
-    else:
-        todo = ("if the joint's gap is that wide, give the working distance and the joint's "
-                "gap (detect --calibration C --distance-mm Z --gap-mm LO HI; in a job, its "
-                "[seam] gap_mm) to measure it")
-    return type(exc)(f"{exc}; {n} line(s) looked at fit a dark band {TOO_WIDE} "
-                     f"({p.max_gap_px:.0f} px), a wide gap or a gap with a shadow or a mark "
-                     f"beside it: {todo}", **exc.details)
+    return _detect_in(sub, hint_arr, p, straighten, None, None)
 
 
 def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
