@@ -72,6 +72,7 @@ from controller.vision.seam_coarse import (
     mean_dist,
     share_near,
 )
+from controller.vision.seam_crossbar import no_stem_on
 from controller.vision.seam_decision import (
     IMAGE_BORDER,
     JOINT_END,
@@ -156,6 +157,9 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
             small = replace(small, reasons=[f"at full size: {why}; the search on the image "
                                             "shrunk took this one of the two",
                                             *small.reasons])
+        if hint_arr is None:  # the lines the full-size search saw, on the seam read shrunk
+            no_stem_on(small.points_px, small.gap_width_px or 3.0,
+                       [c for look in traced for c in look], p, x0, y0)
         return moved(small, 1.0, (x0, y0))
 
 
@@ -198,6 +202,7 @@ def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
             trace.append(list(cands))
         return choose(cands, p, details, (x0, y0), tees)
 
+    looked = cands  # every candidate looked at: where a line ends on the one chosen (crossbar)
     try:
         best, ratio, conf, reasons = decide(cands)
     except SeamNotFound as first:
@@ -209,18 +214,31 @@ def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
         except SeamNotFound:
             pass
         else:
-            no_parallel_valley(sub, lut, best, p, x0, y0)
+            _one_line(sub, lut, best, both, hint_arr, p, x0, y0)
             return _detection(best, ratio, conf, reasons, both, x0, y0)
         # The gap is not the clean two-edge valley the profiles fit (ragged, wide, covered by
         # tack welds, dark and noisy): the seam as a whole-image valley path (seam_robust).
         cands = robust_candidates(sub, lut, p, not_lines=faded_lines(cands))
+        looked = both + cands
         table(cands)
         details["first_way"] = str(first)
         best, ratio, conf, reasons = decide(cands)
         reasons.append("found as a whole-image valley path (the two-edge profile model did not "
                        "fit the gap)")
-    no_parallel_valley(sub, lut, best, p, x0, y0)
+    _one_line(sub, lut, best, looked, hint_arr, p, x0, y0)
     return _detection(best, ratio, conf, reasons, cands, x0, y0)
+
+
+def _one_line(sub: NDArray[np.uint8], lut: F64, best: Candidate, looked: list[Candidate],
+              hint: F64 | None, p: DetectParams, x0: int, y0: int) -> None:
+    """Refuse ``best`` where a parallel line, or one ending on it (a T-stem), makes it doubtful.
+
+    The second is not asked where the job's nominal seam line (``hint``) chose ``best``.
+    """
+    no_parallel_valley(sub, lut, best, p, x0, y0)
+    if hint is None and best.points is not None:
+        no_stem_on(best.points, float(np.median(best.width)) if best.width is not None else 3.0,
+                   looked, p, x0, y0)
 
 
 def outside_corridor(cands: list[Candidate], hint: F64, p: DetectParams) -> None:
