@@ -113,11 +113,11 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
     ``hint``: a nominal seam polyline (N >= 2 vertices, px; it may run out of the image), the
     job's nominal line seen in this view; a candidate ``p.hint_tol_px`` or more (mean distance)
     from it is never returned, and still counts as a rival (:func:`outside_corridor`).
-    Raises :class:`SeamNotFound` (no candidate passes), :class:`AmbiguousSeam`
-    (two candidates of similar strength, or a second line beside the best one at a pen line's
-    distance), :class:`InputError` (not a uint8 image, wrong size, bad ROI or hint). A refusal
-    where a line's profiles fitted a dark band wider than ``p.max_gap_px`` says so and what to
-    give to measure a gap that wide (:func:`controller.vision.seam_centreline.scale_advice`).
+    Raises :class:`SeamNotFound` (no candidate passes), :class:`AmbiguousSeam` (two candidates
+    of similar strength, a second line beside the best one at a pen line's distance, or a long
+    line ending on it: a T's crossbar), :class:`InputError` (not a uint8 image, wrong size, bad
+    ROI or hint). A refusal where a line's profiles fitted a band wider than ``p.max_gap_px``
+    says what to give to measure it (:func:`controller.vision.seam_centreline.scale_advice`).
     ``trace``: when given, every list of candidates a choice is made over is appended to it, in
     order (the first way's; with the finer grid's; the valley paths'), ROI px: what
     ``bench.detect_funnel`` reads to say where a joint was lost (the full-size search only; the
