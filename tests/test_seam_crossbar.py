@@ -36,6 +36,17 @@ def test_a_line_ending_on_the_seam_from_one_side_is_a_stem() -> None:
     assert stem_on(SEAM, 6.0, _line((400.0, 492.0), 70.0, 600.0)[::-1]) is not None
 
 
+def test_a_curving_stem_is_read_at_the_end_that_meets_the_seam() -> None:
+    # Up from the seam at 80 deg for 80 px, then bending to run nearly along it: the chord from
+    # its far end meets the seam at a shallow angle, the stem itself does not.
+    first = _line((400.0, 492.0), 80.0, 80.0)
+    turn = _line(tuple(first[-1]), 10.0, 700.0)[1:]
+    stem = np.vstack([first, turn])
+    for line in (stem, stem[::-1]):
+        found = stem_on(SEAM, 6.0, line)
+        assert found is not None and found[1] == pytest.approx(80.0, abs=3.0)
+
+
 def test_a_crossing_a_shallow_angle_a_seam_end_or_a_line_apart_is_not() -> None:
     across = _line((400.0 - 60 * np.cos(np.radians(70)), 560.0), 70.0, 600.0)  # goes on below
     assert stem_on(SEAM, 6.0, across) is None

@@ -42,8 +42,8 @@ def stem_on(best: F64, width_px: float, line: F64) -> tuple[F64, float] | None:
     angle between them there (deg).
     """
     s = arc_length(best)
-    for end in (line[0], line[-1]):
-        inner = line[min(len(line) - 1, 15)] if end is line[0] else line[max(0, len(line) - 16)]
+    for end, inner in ((line[0], line[min(len(line) - 1, 15)]),
+                       (line[-1], line[max(0, len(line) - 16)])):
         d = np.linalg.norm(best - end, axis=1)
         j = int(np.argmin(d))
         if d[j] > width_px / 2 + REACH_PX or min(s[j], s[-1] - s[j]) < END_PX:
