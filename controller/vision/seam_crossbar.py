@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from controller.errors import AmbiguousSeam
+from controller.vision.seam_coarse import nearest_px
 from controller.vision.seam_decision import GIVE_ROI, arc_length, summary_px
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_tee import MIN_ANGLE_DEG
@@ -74,8 +75,7 @@ def no_stem_on(points: F64, width_px: float, cands: list[Candidate], p: DetectPa
         line = c.points if c.points is not None else c.polyline
         if line is None or len(line) < 3 or c.length_px < STEM_LENGTHS * p.min_length_px:
             continue
-        if float(np.median(np.linalg.norm(line[:, None, :] - points[None, ::8, :],
-                                          axis=2).min(axis=1))) < AWAY_PX:
+        if float(np.median(nearest_px(line, points)[0])) < AWAY_PX:
             continue  # the seam itself, or a piece of it
         found = stem_on(points, width_px, line)
         if found is not None:
