@@ -66,12 +66,7 @@ from numpy.typing import ArrayLike, NDArray
 from controller.errors import AmbiguousSeam, InputError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.vision.seam_centreline import refine, scale_advice
-from controller.vision.seam_coarse import (
-    coarse_candidates,
-    drop_duplicates,
-    mean_dist,
-    share_near,
-)
+from controller.vision.seam_coarse import coarse_candidates, drop_duplicates, mean_dist, share_near
 from controller.vision.seam_crossbar import no_stem_on
 from controller.vision.seam_decision import (
     IMAGE_BORDER,
@@ -83,6 +78,7 @@ from controller.vision.seam_decision import (
 )
 from controller.vision.seam_detection import SeamDetection
 from controller.vision.seam_edge_ends import correct_edge_ends
+from controller.vision.seam_grain import no_grain_across
 from controller.vision.seam_parallel import no_parallel_valley
 from controller.vision.seam_params import F64, OPEN_END, Candidate, DetectParams
 from controller.vision.seam_pattern import (
@@ -151,7 +147,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
             # wide gap in pieces): the shrunk search may choose, but only one of those two.
             two = [np.asarray(exc.details[k], np.float64) - [x0, y0]
                    for k in ("best_px", "second_px") if k in exc.details]
-            if not one_of(small, two):
+            if len(two) < 2 or not one_of(small, two):
                 raise scale_advice(exc, traced, p) from None
             why = str(exc).split("; refusing")[0]
             small = replace(small, reasons=[f"at full size: {why}; the search on the image "
@@ -231,11 +227,12 @@ def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
 
 def _one_line(sub: NDArray[np.uint8], lut: F64, best: Candidate, looked: list[Candidate],
               hint: F64 | None, p: DetectParams, x0: int, y0: int) -> None:
-    """Refuse ``best`` where a parallel line, or one ending on it (a T-stem), makes it doubtful.
+    """Refuse ``best`` where a parallel line, a shadow in its band or a T-stem makes it doubtful.
 
     The second is not asked where the job's nominal seam line (``hint``) chose ``best``.
     """
     no_parallel_valley(sub, lut, best, p, x0, y0)
+    no_grain_across(sub, lut, best, p, x0, y0)
     if hint is None and best.points is not None:
         no_stem_on(best.points, float(np.median(best.width)) if best.width is not None else 3.0,
                    looked, p, x0, y0)

@@ -1,0 +1,186 @@
+"""A dark band may be the gap with one sheet in shadow beside it: that sheet's grain runs into it.
+
+A plate edge standing higher than the other casts a shadow on the lower sheet beside the gap.
+Where the shadow is about as dark as the gap's floor, the profiles fit one dark band, gap and
+shadow together, and its middle lies up to half the shadow's width off the joint: the levels do
+not say where in the band the gap is (README, *A shadow the sheet's grain runs into*: 20 of the
+39 wrong views of the extended tuning part). The texture says which side the shadow is on. A
+shadow darkens the sheet it falls on, whose grain (brushing and rolling marks, grit) runs on
+across the shadow's edge, scaled; at the gap's edge one sheet ends and its grain stops. Along the
+band, a line just inside each edge is compared with a line just outside it, each as its fine
+texture (log radiance less its running mean over :data:`HIGHPASS_PX`, which keeps the marks and
+drops light falloff and an edge's slow wander), at the slant the grain has on the sheet alone (two
+lines on the sheet as far apart). Where one edge carries the grain on and the other does not,
+:func:`no_grain_across` refuses the seam: one image still cannot tell how wide the gap in the
+band is. Edges are found on the band's median profile, a blurred edge read past its blur.
+
+Pixels are (u, v) of the image searched; levels are linear radiance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from controller.errors import AmbiguousSeam
+from controller.vision.seam_decision import summary_px
+from controller.vision.seam_params import F64, Candidate, DetectParams
+from controller.vision.seam_profiles import bilinear, resample
+
+#: Bands at least this share of the widest gap (``p.max_gap_px``) wide are read: a narrower
+#: band's middle is within a tolerance's 3 px of the gap whatever part of it is shadow.
+MIN_BAND_SHARE = 0.4
+HIGHPASS_PX = 9  # running mean taken off the log radiance along a line (px)
+CLIP_MADS = 2.5  # texture values clipped at this many robust standard deviations
+BLURS = 1.5  # lines read this many edge widths (20-80 %) from an edge: past its blur
+SLANT_PX = 30  # the grain's shift along the band, between lines a few px apart, looked for (px)
+#: The grain runs on across an edge: correlation at least this, and at least ``ON_SHARE`` of the
+#: sheet's own between two lines as far apart, which is itself at least ``SHEET_MIN``.
+ON_MIN = 0.2
+ON_SHARE = 0.5
+SHEET_MIN = 0.2
+#: A shadow the grain shows through leaves the sheet at least this share of its light (the
+#: simulator's shadows 0.2-0.7, a fill light's); a gap's floor is often near black, where the
+#: log of the few levels left magnifies noise and JPEG ringing shared across the edge (real
+#: photograph 1_x3 of ../shared/data/real-seams: 0.01, grain "running on" at 0.27 of 0.34).
+LIT_MIN = 0.1
+OFF_MAX = 0.12  # the grain stops at the other edge: correlation under this
+_SHEET_PX = (8.0, 15.0)  # beyond the band's half width: where a sheet's level is read
+
+
+def _texture(v: F64, ok: NDArray[np.bool_]) -> tuple[F64, NDArray[np.bool_]]:
+    """Fine texture of a line's samples: log radiance less its running mean; where it is whole.
+
+    A sample counts where the whole :data:`HIGHPASS_PX` window around it is ``ok``. Clipped at
+    :data:`CLIP_MADS` robust deviations: a spot, a hole or a tack weld's edge crossing the
+    line would otherwise make the whole correlation.
+    """
+    lg = np.log(np.where(ok, v, 1.0) + 1e-3)
+    k = np.ones(HIGHPASS_PX) / HIGHPASS_PX
+    whole = np.convolve(ok.astype(np.float64), k, mode="same") > 1.0 - 1e-9
+    t = lg - np.convolve(lg, k, mode="same")
+    if whole.sum() >= 10:
+        lim = CLIP_MADS * 1.4826 * float(np.median(np.abs(t[whole] - np.median(t[whole]))))
+        t = np.clip(t, -lim, lim)
+    return np.where(whole, t, 0.0), whole
+
+
+def _corr(a: F64, b: F64, ok: NDArray[np.bool_], shifts: range) -> F64:
+    """Pearson correlation of ``a[i]`` with ``b[i + k]`` over samples ``ok`` in both, per shift."""
+    n = len(a)
+    out = np.full(len(shifts), -1.0)
+    for j, k in enumerate(shifts):
+        i0, i1 = max(0, -k), min(n, n - k)
+        if i1 - i0 < 50:
+            continue
+        m = ok[i0:i1] & ok[i0 + k:i1 + k]
+        if m.sum() < 50:
+            continue
+        x, y = a[i0:i1][m], b[i0 + k:i1 + k][m]
+        x, y = x - x.mean(), y - y.mean()
+        out[j] = float(np.sum(x * y) / (np.sqrt(np.sum(x * x) * np.sum(y * y)) + 1e-12))
+    return out
+
+
+def edge_grain(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
+               keep: NDArray[np.bool_] | None = None) -> dict[int, tuple[float, float]] | None:
+    """Per side (-1, +1 along the left normal of ``points``): (grain across the edge, on sheet).
+
+    ``points`` (K, 2) px, the band's centreline; ``width_px`` its median width; ``keep`` (K,)
+    the points to read at (not a covered span: a tack weld's bead lies across both edges).
+    Each: the correlation of a line inside the band's edge with one outside it, and of that one
+    with a line as far again out on the sheet (its best over :data:`SLANT_PX` of shift; the
+    edge's taken at that shift, +-1 px). The lines lie :data:`BLURS` edge widths (20-80 % of
+    the rise on the band's median profile; at least 2 px) from the edge, the inner one not past
+    the band's middle: nearer, the blur carries the sheet's texture into the band and the two
+    lines correlate at any edge. The edge's is 0 where the line inside has under
+    :data:`LIT_MIN` of the light of the one outside. None where too little of the band is in
+    the image, or a side shows no sheet brighter than the band.
+    """
+    pts, nrm = resample(points, 1.0, extend=0.0)
+    if len(pts) < 100:
+        return None
+    ok = np.ones(len(pts), bool)
+    if keep is not None and len(keep) == len(points):
+        seg = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
+        idx = np.clip(np.searchsorted(seg, np.arange(len(pts)) * 1.0), 0, len(points) - 1)
+        ok &= keep[idx]
+
+    def line(off: float) -> tuple[F64, NDArray[np.bool_]]:
+        val, inside = bilinear(grey, lut, pts[:, 0] + off * nrm[:, 0], pts[:, 1] + off * nrm[:, 1])
+        return val, inside & ok
+
+    h = 0.5 * width_px
+    offs = np.arange(-h - _SHEET_PX[1], h + _SHEET_PX[1] + 1e-9, 0.5)
+    rows = [line(float(o)) for o in offs]
+    if min(int(m.sum()) for _, m in rows) < 100:
+        return None
+    prof = np.array([np.median(v[m]) for v, m in rows])
+    floor = float(prof[np.abs(offs) <= max(h, 1.0)].min())
+    out: dict[int, tuple[float, float]] = {}
+    shifts = range(-SLANT_PX, SLANT_PX + 1)
+    for side in (-1, 1):
+        o = side * offs
+        sel = o >= 0.0
+        o_s, p_s = o[sel], prof[sel]
+        order = np.argsort(o_s)
+        o_s, p_s = o_s[order], p_s[order]
+        sheet = float(np.median(p_s[(o_s >= h + _SHEET_PX[0]) & (o_s <= h + _SHEET_PX[1])]))
+        if sheet <= floor:
+            return None
+        f = (p_s - floor) / (sheet - floor)
+        if not (f > 0.8).any():
+            return None
+        a20, a80 = float(o_s[np.argmax(f > 0.2)]), float(o_s[np.argmax(f > 0.8)])
+        edge, blur = 0.5 * (a20 + a80), max(a80 - a20, 0.5)
+        reach = max(2.0, BLURS * blur)
+        d_in, d_out = min(reach, max(edge, 0.0)), reach
+        (va, ma), (vb, mb), (vc, mc) = (line(side * x) for x in (
+            edge - d_in, edge + d_out, edge + 2 * d_out + d_in))
+        (ta, ma), (tb, mb), (tc, mc) = _texture(va, ma), _texture(vb, mb), _texture(vc, mc)
+        sheet_c = _corr(tb, tc, mb & mc, shifts)
+        k = int(np.argmax(sheet_c))
+        near = range(shifts[max(k - 1, 0)], shifts[min(k + 1, len(shifts) - 1)] + 1)
+        lit = float(np.median(va[ma]) / max(float(np.median(vb[mb])), 1e-9))
+        out[side] = (float(_corr(ta, tb, ma & mb, near).max()) if lit >= LIT_MIN else 0.0,
+                     float(sheet_c[k]))
+    return out
+
+
+def shadow_side(grain: dict[int, tuple[float, float]]) -> int | None:
+    """The side whose sheet's grain runs on into the band while the other edge's stops, or None."""
+    def on(g: tuple[float, float]) -> bool:
+        return g[1] >= SHEET_MIN and g[0] >= ON_MIN and g[0] >= ON_SHARE * g[1]
+
+    for side in (-1, 1):
+        if on(grain[side]) and grain[-side][0] < OFF_MAX:
+            return side
+    return None
+
+
+def no_grain_across(grey: NDArray[np.uint8], lut: F64, best: Candidate, p: DetectParams,
+                    x0: int, y0: int) -> None:
+    """Raise :class:`AmbiguousSeam` where ``best``'s dark band is the gap and a shadow beside it.
+
+    Read for bands of ``MIN_BAND_SHARE * p.max_gap_px`` or wider, not where a shadow was split
+    off already (``best.band_points``: :mod:`controller.vision.seam_shadow`).
+    """
+    if best.points is None or best.width is None or best.band_points is not None:
+        return
+    width = float(np.median(best.width))
+    if width < MIN_BAND_SHARE * p.max_gap_px:
+        return
+    keep = None if best.bridged is None else ~np.asarray(best.bridged, bool)
+    grain = edge_grain(grey, lut, best.points, width, keep)
+    if grain is None or (side := shadow_side(grain)) is None:
+        return
+    on, sheet = grain[side]
+    raise AmbiguousSeam(
+        f"the dark band ({width:.1f} px wide) is the gap with one sheet in shadow beside it: "
+        f"that sheet's grain runs on into the band across one edge (correlation {on:.2f}, "
+        f"{sheet:.2f} on the sheet itself) and stops at the other ({grain[-side][0]:.2f}), so "
+        "the band's middle is off the joint by up to half the shadow's width and one image "
+        "cannot tell how much; refusing: light the joint so that neither plate edge shades it "
+        "(from above, or from the lower sheet's side)",
+        best_px=summary_px(best, x0, y0), band_width_px=round(width, 1),
+        grain=[round(on, 2), round(sheet, 2), round(grain[-side][0], 2)])
