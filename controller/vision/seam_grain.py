@@ -19,6 +19,8 @@ Pixels are (u, v) of the image searched; levels are linear radiance.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -34,6 +36,8 @@ HIGHPASS_PX = 9  # running mean taken off the log radiance along a line (px)
 CLIP_MADS = 2.5  # texture values clipped at this many robust standard deviations
 BLURS = 1.5  # lines read this many edge widths (20-80 %) from an edge: past its blur
 SLANT_PX = 30  # the grain's shift along the band, between lines a few px apart, looked for (px)
+_SHIFTS = range(-SLANT_PX, SLANT_PX + 1)
+SLANT_AGREE_PX = 2  # two shifts of the grain over the same distance agree within this (px)
 #: The grain runs on across an edge: correlation at least this, and at least ``ON_SHARE`` of the
 #: sheet's own between two lines as far apart, which is itself at least ``SHEET_MIN``.
 ON_MIN = 0.2
@@ -82,6 +86,72 @@ def _corr(a: F64, b: F64, ok: NDArray[np.bool_], shifts: range) -> F64:
     return out
 
 
+Line = Callable[[float], tuple[F64, NDArray[np.bool_]]]
+
+
+def _sampler(grey: NDArray[np.uint8], lut: F64, points: F64,
+             keep: NDArray[np.bool_] | None) -> Line | None:
+    """Lines parallel to ``points`` (a sample per px along it): offset px -> (levels, usable).
+
+    Usable: inside the image and at a point of ``keep``. None for a line under 100 px.
+    """
+    pts, nrm = resample(points, 1.0, extend=0.0)
+    if len(pts) < 100:
+        return None
+    ok = np.ones(len(pts), bool)
+    if keep is not None and len(keep) == len(points):
+        seg = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
+        idx = np.clip(np.searchsorted(seg, np.arange(len(pts)) * 1.0), 0, len(points) - 1)
+        ok &= keep[idx]
+
+    def line(off: float) -> tuple[F64, NDArray[np.bool_]]:
+        val, inside = bilinear(grey, lut, pts[:, 0] + off * nrm[:, 0], pts[:, 1] + off * nrm[:, 1])
+        return val, inside & ok
+
+    return line
+
+
+def _edges(line: Line, width_px: float) -> dict[int, tuple[float, float]] | None:
+    """Per side (-1, +1): (the band's edge, offset px from its middle; how far past it to read).
+
+    The edge is where the band's median profile has risen half-way to the sheet's level, which
+    is read ``_SHEET_PX`` beyond the band's half width; a line is read :data:`BLURS` times the
+    rise's 20-80 % width (at least 2 px) from it. None where too little of the band is in the
+    image or a side shows no sheet brighter than the band.
+    """
+    h = 0.5 * width_px
+    offs = np.arange(-h - _SHEET_PX[1], h + _SHEET_PX[1] + 1e-9, 0.5)
+    rows = [line(float(o)) for o in offs]
+    if min(int(m.sum()) for _, m in rows) < 100:
+        return None
+    prof = np.array([np.median(v[m]) for v, m in rows])
+    floor = float(prof[np.abs(offs) <= max(h, 1.0)].min())
+    out = {}
+    for side in (-1, 1):
+        o = side * offs
+        order = np.argsort(o)
+        o_s, p_s = o[order], prof[order]
+        p_s, o_s = p_s[o_s >= 0.0], o_s[o_s >= 0.0]
+        sheet = float(np.median(p_s[(o_s >= h + _SHEET_PX[0]) & (o_s <= h + _SHEET_PX[1])]))
+        if sheet <= floor:
+            return None
+        f = (p_s - floor) / (sheet - floor)
+        if not (f > 0.8).any():
+            return None
+        a20, a80 = float(o_s[np.argmax(f > 0.2)]), float(o_s[np.argmax(f > 0.8)])
+        out[side] = (0.5 * (a20 + a80), max(2.0, BLURS * max(a80 - a20, 0.5)))
+    return out
+
+
+def _best_shift(a: tuple[F64, NDArray[np.bool_]], b: tuple[F64, NDArray[np.bool_]],
+                shifts: range) -> tuple[float, int]:
+    """(highest correlation of ``b``'s texture with ``a``'s, the shift it is at)."""
+    (ta, ma), (tb, mb) = _texture(*a), _texture(*b)
+    c = _corr(ta, tb, ma & mb, shifts)
+    k = int(np.argmax(c))
+    return float(c[k]), shifts[k]
+
+
 def edge_grain(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
                keep: NDArray[np.bool_] | None = None) -> dict[int, tuple[float, float]] | None:
     """Per side (-1, +1 along the left normal of ``points``): (grain across the edge, on sheet).
@@ -97,54 +167,44 @@ def edge_grain(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
     :data:`LIT_MIN` of the light of the one outside. None where too little of the band is in
     the image, or a side shows no sheet brighter than the band.
     """
-    pts, nrm = resample(points, 1.0, extend=0.0)
-    if len(pts) < 100:
+    line = _sampler(grey, lut, points, keep)
+    edges = None if line is None else _edges(line, width_px)
+    if line is None or edges is None:
         return None
-    ok = np.ones(len(pts), bool)
-    if keep is not None and len(keep) == len(points):
-        seg = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
-        idx = np.clip(np.searchsorted(seg, np.arange(len(pts)) * 1.0), 0, len(points) - 1)
-        ok &= keep[idx]
-
-    def line(off: float) -> tuple[F64, NDArray[np.bool_]]:
-        val, inside = bilinear(grey, lut, pts[:, 0] + off * nrm[:, 0], pts[:, 1] + off * nrm[:, 1])
-        return val, inside & ok
-
-    h = 0.5 * width_px
-    offs = np.arange(-h - _SHEET_PX[1], h + _SHEET_PX[1] + 1e-9, 0.5)
-    rows = [line(float(o)) for o in offs]
-    if min(int(m.sum()) for _, m in rows) < 100:
-        return None
-    prof = np.array([np.median(v[m]) for v, m in rows])
-    floor = float(prof[np.abs(offs) <= max(h, 1.0)].min())
     out: dict[int, tuple[float, float]] = {}
-    shifts = range(-SLANT_PX, SLANT_PX + 1)
-    for side in (-1, 1):
-        o = side * offs
-        sel = o >= 0.0
-        o_s, p_s = o[sel], prof[sel]
-        order = np.argsort(o_s)
-        o_s, p_s = o_s[order], p_s[order]
-        sheet = float(np.median(p_s[(o_s >= h + _SHEET_PX[0]) & (o_s <= h + _SHEET_PX[1])]))
-        if sheet <= floor:
-            return None
-        f = (p_s - floor) / (sheet - floor)
-        if not (f > 0.8).any():
-            return None
-        a20, a80 = float(o_s[np.argmax(f > 0.2)]), float(o_s[np.argmax(f > 0.8)])
-        edge, blur = 0.5 * (a20 + a80), max(a80 - a20, 0.5)
-        reach = max(2.0, BLURS * blur)
-        d_in, d_out = min(reach, max(edge, 0.0)), reach
-        (va, ma), (vb, mb), (vc, mc) = (line(side * x) for x in (
-            edge - d_in, edge + d_out, edge + 2 * d_out + d_in))
-        (ta, ma), (tb, mb), (tc, mc) = _texture(va, ma), _texture(vb, mb), _texture(vc, mc)
-        sheet_c = _corr(tb, tc, mb & mc, shifts)
-        k = int(np.argmax(sheet_c))
-        near = range(shifts[max(k - 1, 0)], shifts[min(k + 1, len(shifts) - 1)] + 1)
-        lit = float(np.median(va[ma]) / max(float(np.median(vb[mb])), 1e-9))
-        out[side] = (float(_corr(ta, tb, ma & mb, near).max()) if lit >= LIT_MIN else 0.0,
-                     float(sheet_c[k]))
+    for side, (edge, reach) in edges.items():
+        d_in = min(reach, max(edge, 0.0))
+        inner, outer = line(side * (edge - d_in)), line(side * (edge + reach))
+        sheet, k = _best_shift(outer, line(side * (edge + 2 * reach + d_in)), _SHIFTS)
+        lit = float(np.median(inner[0][inner[1]])
+                    / max(float(np.median(outer[0][outer[1]])), 1e-9))
+        on = _best_shift(inner, outer, range(k - 1, k + 2))[0] if lit >= LIT_MIN else 0.0
+        out[side] = (on, sheet)
     return out
+
+
+def across_grain(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
+                 keep: NDArray[np.bool_] | None = None) -> tuple[float, float, bool] | None:
+    """(grain across the whole line, the lower of the two sides' own, at the same slant).
+
+    Lines read past each edge of the line's dark band as in :func:`edge_grain`; the texture of
+    one compared with the other's (best over :data:`SLANT_PX` of shift) and each with a line as
+    far again out on its own side. The third item: the grain's shift across the line agrees,
+    within :data:`SLANT_AGREE_PX`, with the shift each side's own pair shows (the grain is
+    straight: a line drawn on one surface shifts it as the surface itself does). None as for
+    :func:`edge_grain`.
+    """
+    line = _sampler(grey, lut, points, keep)
+    edges = None if line is None else _edges(line, width_px)
+    if line is None or edges is None:
+        return None
+    at = {side: side * (e + r) for side, (e, r) in edges.items()}
+    sep = at[1] - at[-1]
+    across, k = _best_shift(line(at[-1]), line(at[1]), _SHIFTS)
+    own = {side: _best_shift(line(at[side]), line(at[side] + side * sep), _SHIFTS)
+           for side in (-1, 1)}
+    agree = (abs(k - own[1][1]) <= SLANT_AGREE_PX and abs(k + own[-1][1]) <= SLANT_AGREE_PX)
+    return across, min(own[1][0], own[-1][0]), agree
 
 
 def shadow_side(grain: dict[int, tuple[float, float]]) -> int | None:
@@ -163,9 +223,11 @@ def no_grain_across(grey: NDArray[np.uint8], lut: F64, best: Candidate, p: Detec
     """Raise :class:`AmbiguousSeam` where ``best``'s dark band is the gap and a shadow beside it.
 
     Read for bands of ``MIN_BAND_SHARE * p.max_gap_px`` or wider, not where a shadow was split
-    off already (``best.band_points``: :mod:`controller.vision.seam_shadow`).
+    off already (``best.band_points``: :mod:`controller.vision.seam_shadow`), nor where
+    ``p.grain`` is off (the search on the image shrunk).
     """
-    if best.points is None or best.width is None or best.band_points is not None:
+    if (not p.grain or best.points is None or best.width is None
+            or best.band_points is not None):
         return
     width = float(np.median(best.width))
     if width < MIN_BAND_SHARE * p.max_gap_px:

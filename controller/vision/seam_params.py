@@ -54,6 +54,9 @@ class DetectParams:
     ``smaller``: when the search finds no seam, search the image shrunk by 2 and keep a seam
     found there only where the gap is soft at full size and the same seam is found shrunk by 3
     (:mod:`controller.vision.seam_smaller`: a close-up's wide, defocused gap).
+    ``grain``: refuse a dark band one of whose edges the grain of a sheet in shadow runs on
+    across (:mod:`controller.vision.seam_grain`); off on the image shrunk, whose pixels average
+    the grain away.
     ``robust``: when no candidate of the profile model passes, look for the seam as a whole-image
     valley path (:mod:`controller.vision.seam_robust`: ragged, wide, covered or dark gaps).
     ``straight_px``: a line whose points lie within this RMS distance of their principal axis is
@@ -95,6 +98,7 @@ class DetectParams:
     max_candidates: int = 4
     robust: bool = True
     smaller: bool = True
+    grain: bool = True
     straight_px: float = 2.5
     pattern_offset_px: float = 200.0
     max_band_px: float = 0.0
