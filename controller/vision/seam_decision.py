@@ -238,7 +238,11 @@ def summary_px(c: Candidate, x0: int, y0: int) -> list[list[float]]:
     Its first and last point, and a point about every :data:`SUMMARY_STEP_PX` px of arc length
     between them.
     """
-    pts = c.points if c.points is not None else c.polyline
+    return points_summary(c.points if c.points is not None else c.polyline, x0, y0)
+
+
+def points_summary(pts: F64, x0: int, y0: int) -> list[list[float]]:
+    """A centreline ``pts`` (px) as :func:`summary_px` reports it, ``x0, y0`` added."""
     s = arc_length(pts)
     n = max(2, int(np.ceil(s[-1] / SUMMARY_STEP_PX)) + 1)
     idx = np.unique(np.searchsorted(s, np.linspace(0.0, s[-1], n)).clip(0, len(pts) - 1))

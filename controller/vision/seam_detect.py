@@ -78,7 +78,7 @@ from controller.vision.seam_decision import (
 )
 from controller.vision.seam_detection import SeamDetection
 from controller.vision.seam_edge_ends import correct_edge_ends
-from controller.vision.seam_grain import no_grain_across
+from controller.vision.seam_grain import no_grain_across, no_one_surface
 from controller.vision.seam_parallel import no_parallel_valley
 from controller.vision.seam_params import F64, OPEN_END, Candidate, DetectParams
 from controller.vision.seam_pattern import (
@@ -153,6 +153,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
             small = replace(small, reasons=[f"at full size: {why}; the search on the image "
                                             "shrunk took this one of the two",
                                             *small.reasons])
+        no_one_surface(sub, small, p, x0, y0)  # (the shrunk search's pixels lose the grain)
         if hint_arr is None:  # the lines the full-size search saw, on the seam read shrunk
             no_stem_on(small.points_px, small.gap_width_px or 3.0,
                        [c for look in traced for c in look], p, x0, y0)

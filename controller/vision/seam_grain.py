@@ -24,10 +24,11 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.errors import AmbiguousSeam
-from controller.vision.seam_decision import summary_px
+from controller.errors import AmbiguousSeam, SeamNotFound
+from controller.vision.seam_decision import orient, points_summary, summary_px
+from controller.vision.seam_detection import SeamDetection
 from controller.vision.seam_params import F64, Candidate, DetectParams
-from controller.vision.seam_profiles import bilinear, resample
+from controller.vision.seam_profiles import bilinear, linear_lut, resample
 
 #: Bands at least this share of the widest gap (``p.max_gap_px``) wide are read: a narrower
 #: band's middle is within a tolerance's 3 px of the gap whatever part of it is shadow.
@@ -218,22 +219,38 @@ def shadow_side(grain: dict[int, tuple[float, float]]) -> int | None:
     return None
 
 
+def _oriented(points: F64, keep: NDArray[np.bool_] | None
+              ) -> tuple[F64, NDArray[np.bool_] | None]:
+    """``points`` (and ``keep``) in the detector's order (:func:`seam_decision.orient`).
+
+    The lines are sampled a px apart from the first point: the same seam read from either end
+    would be sampled half a px apart and correlate a little differently.
+    """
+    pts = orient(points)
+    if pts is points or keep is None:
+        return pts, keep
+    return pts, keep[::-1]
+
+
 def no_grain_across(grey: NDArray[np.uint8], lut: F64, best: Candidate, p: DetectParams,
                     x0: int, y0: int) -> None:
-    """Raise :class:`AmbiguousSeam` where ``best``'s dark band is the gap and a shadow beside it.
+    """Refuse ``best`` where the grain runs on across it or across one edge of its band.
 
-    Read for bands of ``MIN_BAND_SHARE * p.max_gap_px`` or wider, not where a shadow was split
-    off already (``best.band_points``: :mod:`controller.vision.seam_shadow`), nor where
-    ``p.grain`` is off (the search on the image shrunk).
+    Across the whole line: :func:`no_one_surface`. Across one edge, for bands of
+    ``MIN_BAND_SHARE * p.max_gap_px`` or wider not split into a core and a shadow already
+    (``best.band_points``, :mod:`controller.vision.seam_shadow`): the gap with one sheet in
+    shadow beside it (:func:`shadow_side`), :class:`AmbiguousSeam`. Neither where ``p.grain``
+    is off (the search on the image shrunk).
     """
-    if (not p.grain or best.points is None or best.width is None
-            or best.band_points is not None):
+    if not p.grain or best.points is None or best.width is None:
         return
     width = float(np.median(best.width))
-    if width < MIN_BAND_SHARE * p.max_gap_px:
-        return
     keep = None if best.bridged is None else ~np.asarray(best.bridged, bool)
-    grain = edge_grain(grey, lut, best.points, width, keep)
+    _one_surface(grey, lut, best.points, width, keep, x0, y0)
+    if best.band_points is not None or width < MIN_BAND_SHARE * p.max_gap_px:
+        return
+    pts, keep = _oriented(best.points, keep)
+    grain = edge_grain(grey, lut, pts, width, keep)
     if grain is None or (side := shadow_side(grain)) is None:
         return
     on, sheet = grain[side]
@@ -246,3 +263,38 @@ def no_grain_across(grey: NDArray[np.uint8], lut: F64, best: Candidate, p: Detec
         "(from above, or from the lower sheet's side)",
         best_px=summary_px(best, x0, y0), band_width_px=round(width, 1),
         grain=[round(on, 2), round(sheet, 2), round(grain[-side][0], 2)])
+
+
+def no_one_surface(grey: NDArray[np.uint8], det: SeamDetection, p: DetectParams, x0: int,
+                   y0: int) -> None:
+    """Raise :class:`SeamNotFound` where the seam ``det`` (px of ``grey``) has one surface.
+
+    The grain of each side runs on across it (:func:`across_grain`). A line drawn, scratched
+    or cut into one sheet or into the table (a pen or soapstone line, a scratch, a table's slot
+    or grid line) has the same surface on both sides; a joint has two sheets, whose grains do
+    not continue each other. Asked where the grain on each side, at the distance across the
+    line, correlates at :data:`SHEET_MIN` or more, at the same slant.
+    """
+    _one_surface(grey, linear_lut(p.gamma), det.points_px, det.gap_width_px, ~det.occluded,
+                 x0, y0)
+
+
+def _one_surface(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
+                 keep: NDArray[np.bool_] | None, x0: int, y0: int) -> None:
+    """:func:`no_one_surface` on ``points`` (px of ``grey``) of median band width ``width_px``.
+
+    ``x0, y0`` are added to the points reported.
+    """
+    pts, keep = _oriented(points, keep)
+    got = across_grain(grey, lut, pts, width_px, keep)
+    if got is None:
+        return
+    across, own, agree = got
+    if agree and own >= SHEET_MIN and across >= ON_MIN and across >= ON_SHARE * own:
+        raise SeamNotFound(
+            f"the line chosen has one surface on both sides: the grain runs on across it "
+            f"(correlation {across:.2f}, at the slant each side shows; {own:.2f} or more on "
+            "each side itself), so it is a line drawn, scratched or cut into one sheet or the "
+            "table (a pen or soapstone line, a scratch, a table's slot), not a joint between "
+            "two sheets; check that the joint is in view, or give a --roi around it",
+            best_px=points_summary(points, x0, y0), grain=[round(across, 2), round(own, 2)])
