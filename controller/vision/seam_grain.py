@@ -50,6 +50,7 @@ SHEET_MIN = 0.2
 #: photograph 1_x3 of ../shared/data/real-seams: 0.01, grain "running on" at 0.27 of 0.34).
 LIT_MIN = 0.1
 OFF_MAX = 0.12  # the grain stops at the other edge: correlation under this
+_PROFILE_EVERY = 8  # the band's median profile is read at every 8th px along it, each px across
 _SHEET_PX = (8.0, 15.0)  # beyond the band's half width: where a sheet's level is read
 
 
@@ -70,31 +71,42 @@ def _texture(v: F64, ok: NDArray[np.bool_]) -> tuple[F64, NDArray[np.bool_]]:
     return np.where(whole, t, 0.0), whole
 
 
-def _corr(a: F64, b: F64, ok: NDArray[np.bool_], shifts: range) -> F64:
-    """Pearson correlation of ``a[i]`` with ``b[i + k]`` over samples ``ok`` in both, per shift."""
-    n = len(a)
-    out = np.full(len(shifts), -1.0)
-    for j, k in enumerate(shifts):
-        i0, i1 = max(0, -k), min(n, n - k)
-        if i1 - i0 < 50:
-            continue
-        m = ok[i0:i1] & ok[i0 + k:i1 + k]
-        if m.sum() < 50:
-            continue
-        x, y = a[i0:i1][m], b[i0 + k:i1 + k][m]
-        x, y = x - x.mean(), y - y.mean()
-        out[j] = float(np.sum(x * y) / (np.sqrt(np.sum(x * x) * np.sum(y * y)) + 1e-12))
-    return out
+def _spectra(t: F64, m: NDArray[np.bool_], size: int) -> NDArray[np.complex128]:
+    """(3, size // 2 + 1): FFTs of a line's mask, texture and squared texture.
+
+    Each 0 where not ``m``, zero-padded to ``size``: what :func:`_corr` correlates.
+    """
+    f = m.astype(np.float64)
+    t = t * f
+    return np.asarray(np.fft.rfft(np.stack([f, t, t * t]), size, axis=1), np.complex128)
 
 
-Line = Callable[[float], tuple[F64, NDArray[np.bool_]]]
+def _corr(sa: NDArray[np.complex128], sb: NDArray[np.complex128], size: int,
+          shifts: range) -> F64:
+    """Pearson correlation of texture ``a[i]`` with ``b[i + k]`` per shift ``k`` of ``shifts``.
+
+    ``sa``, ``sb``: the two lines' :func:`_spectra` (``size`` at least the lines' length plus
+    the largest shift). Over the pairs where both are usable; -1 where fewer than 50. Every
+    sum over the pairs is a cross-correlation, all shifts at once.
+    """
+    prod = np.conj(sa[[0, 1, 0, 1, 2, 0]]) * sb[[0, 0, 1, 1, 0, 2]]
+    k = np.arange(shifts.start, shifts.stop) % size
+    n, s_a, s_b, s_ab, s_aa, s_bb = np.fft.irfft(prod, size, axis=1)[:, k]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        var = (s_aa - s_a * s_a / n) * (s_bb - s_b * s_b / n)
+        r = (s_ab - s_a * s_b / n) / np.sqrt(var)
+    return np.asarray(np.where((n >= 50 - 1e-6) & (var > 0.0), r, -1.0), np.float64)
+
+
+Line = Callable[..., tuple[F64, NDArray[np.bool_]]]
 
 
 def _sampler(grey: NDArray[np.uint8], lut: F64, points: F64,
-             keep: NDArray[np.bool_] | None) -> Line | None:
+             keep: NDArray[np.bool_] | None) -> tuple[Line, int] | None:
     """Lines parallel to ``points`` (a sample per px along it): offset px -> (levels, usable).
 
-    Usable: inside the image and at a point of ``keep``. None for a line under 100 px.
+    Usable: inside the image and at a point of ``keep``; ``every``: only every so many samples.
+    With the number of samples a line has; None for a line under 100 px.
     """
     pts, nrm = resample(points, 1.0, extend=0.0)
     if len(pts) < 100:
@@ -105,11 +117,14 @@ def _sampler(grey: NDArray[np.uint8], lut: F64, points: F64,
         idx = np.clip(np.searchsorted(seg, np.arange(len(pts)) * 1.0), 0, len(points) - 1)
         ok &= keep[idx]
 
-    def line(off: float) -> tuple[F64, NDArray[np.bool_]]:
-        val, inside = bilinear(grey, lut, pts[:, 0] + off * nrm[:, 0], pts[:, 1] + off * nrm[:, 1])
-        return val, inside & ok
+    def line(off: float | F64, every: int = 1) -> tuple[F64, NDArray[np.bool_]]:
+        o = np.asarray(off, np.float64)[..., None]  # one offset, or (M, 1): (M, samples)
+        q, n = pts[::every], nrm[::every]
+        val, inside = bilinear(grey, lut, q[:, 0] + o * n[:, 0], q[:, 1] + o * n[:, 1])
+        shape = o.shape[:-1] + (len(q),)
+        return val.reshape(shape), (inside & ok[::every]).reshape(shape)
 
-    return line
+    return line, len(pts)
 
 
 def _edges(line: Line, width_px: float) -> dict[int, tuple[float, float]] | None:
@@ -121,11 +136,12 @@ def _edges(line: Line, width_px: float) -> dict[int, tuple[float, float]] | None
     image or a side shows no sheet brighter than the band.
     """
     h = 0.5 * width_px
-    offs = np.arange(-h - _SHEET_PX[1], h + _SHEET_PX[1] + 1e-9, 0.5)
-    rows = [line(float(o)) for o in offs]
-    if min(int(m.sum()) for _, m in rows) < 100:
+    offs = np.arange(-h - _SHEET_PX[1], h + _SHEET_PX[1] + 1e-9, 1.0)
+    val, inside = line(offs, _PROFILE_EVERY)
+    m = np.all(inside, axis=0)  # samples every offset of the profile reads
+    if int(m.sum()) < 100 // _PROFILE_EVERY:
         return None
-    prof = np.array([np.median(v[m]) for v, m in rows])
+    prof = np.median(val[:, m], axis=1)
     floor = float(prof[np.abs(offs) <= max(h, 1.0)].min())
     out = {}
     for side in (-1, 1):
@@ -139,18 +155,53 @@ def _edges(line: Line, width_px: float) -> dict[int, tuple[float, float]] | None
         f = (p_s - floor) / (sheet - floor)
         if not (f > 0.8).any():
             return None
-        a20, a80 = float(o_s[np.argmax(f > 0.2)]), float(o_s[np.argmax(f > 0.8)])
+        a20, a80 = _crossing(o_s, f, 0.2), _crossing(o_s, f, 0.8)
         out[side] = (0.5 * (a20 + a80), max(2.0, BLURS * max(a80 - a20, 0.5)))
     return out
 
 
-def _best_shift(a: tuple[F64, NDArray[np.bool_]], b: tuple[F64, NDArray[np.bool_]],
-                shifts: range) -> tuple[float, int]:
-    """(highest correlation of ``b``'s texture with ``a``'s, the shift it is at)."""
-    (ta, ma), (tb, mb) = _texture(*a), _texture(*b)
-    c = _corr(ta, tb, ma & mb, shifts)
-    k = int(np.argmax(c))
-    return float(c[k]), shifts[k]
+def _crossing(o: F64, f: F64, level: float) -> float:
+    """Where ``f`` (at offsets ``o``, rising outward) first passes ``level``.
+
+    Linearly between the samples on either side.
+    """
+    i = int(np.argmax(f > level))
+    if i == 0:
+        return float(o[0])
+    return float(o[i - 1] + (o[i] - o[i - 1]) * (level - f[i - 1]) / max(f[i] - f[i - 1], 1e-12))
+
+
+class _Band:
+    """A band's lines, read once each: its sampler, its edges, each line's texture by offset."""
+
+    def __init__(self, line: Line, edges: dict[int, tuple[float, float]], n: int) -> None:
+        self.line, self.edges = line, edges
+        self.size = 1 << int(np.ceil(np.log2(n + SLANT_PX + 2)))
+        self._seen: dict[float, tuple[F64, NDArray[np.bool_], NDArray[np.complex128]]] = {}
+
+    def read(self, off: float) -> tuple[F64, NDArray[np.bool_], NDArray[np.complex128]]:
+        """(levels, usable, the texture's :func:`_spectra`) of the line at ``off`` px."""
+        key = round(off, 6)
+        if key not in self._seen:
+            v, m = self.line(off)
+            self._seen[key] = (v, m, _spectra(*_texture(v, m), self.size))
+        return self._seen[key]
+
+    def best_shift(self, a: float, b: float, shifts: range) -> tuple[float, int]:
+        """(highest correlation of line ``b``'s texture with line ``a``'s, the shift it is at)."""
+        c = _corr(self.read(a)[2], self.read(b)[2], self.size, shifts)
+        k = int(np.argmax(c))
+        return float(c[k]), shifts[k]
+
+
+def _band(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
+          keep: NDArray[np.bool_] | None) -> _Band | None:
+    """The band along ``points`` (its sampler and edges), or None as :func:`_edges` says."""
+    sampler = _sampler(grey, lut, points, keep)
+    edges = None if sampler is None else _edges(sampler[0], width_px)
+    if sampler is None or edges is None:
+        return None
+    return _Band(sampler[0], edges, sampler[1])
 
 
 def edge_grain(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
@@ -168,18 +219,19 @@ def edge_grain(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
     :data:`LIT_MIN` of the light of the one outside. None where too little of the band is in
     the image, or a side shows no sheet brighter than the band.
     """
-    line = _sampler(grey, lut, points, keep)
-    edges = None if line is None else _edges(line, width_px)
-    if line is None or edges is None:
-        return None
+    band = _band(grey, lut, points, width_px, keep)
+    return None if band is None else _edge_grain(band)
+
+
+def _edge_grain(band: _Band) -> dict[int, tuple[float, float]]:
     out: dict[int, tuple[float, float]] = {}
-    for side, (edge, reach) in edges.items():
+    for side, (edge, reach) in band.edges.items():
         d_in = min(reach, max(edge, 0.0))
-        inner, outer = line(side * (edge - d_in)), line(side * (edge + reach))
-        sheet, k = _best_shift(outer, line(side * (edge + 2 * reach + d_in)), _SHIFTS)
-        lit = float(np.median(inner[0][inner[1]])
-                    / max(float(np.median(outer[0][outer[1]])), 1e-9))
-        on = _best_shift(inner, outer, range(k - 1, k + 2))[0] if lit >= LIT_MIN else 0.0
+        inner, outer = side * (edge - d_in), side * (edge + reach)
+        sheet, k = band.best_shift(outer, side * (edge + 2 * reach + d_in), _SHIFTS)
+        (vi, mi), (vo, mo) = band.read(inner)[:2], band.read(outer)[:2]
+        lit = float(np.median(vi[mi]) / max(float(np.median(vo[mo])), 1e-9))
+        on = band.best_shift(inner, outer, range(k - 1, k + 2))[0] if lit >= LIT_MIN else 0.0
         out[side] = (on, sheet)
     return out
 
@@ -195,15 +247,15 @@ def across_grain(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float
     straight: a line drawn on one surface shifts it as the surface itself does). None as for
     :func:`edge_grain`.
     """
-    line = _sampler(grey, lut, points, keep)
-    edges = None if line is None else _edges(line, width_px)
-    if line is None or edges is None:
-        return None
-    at = {side: side * (e + r) for side, (e, r) in edges.items()}
+    band = _band(grey, lut, points, width_px, keep)
+    return None if band is None else _across_grain(band)
+
+
+def _across_grain(band: _Band) -> tuple[float, float, bool]:
+    at = {side: side * (e + r) for side, (e, r) in band.edges.items()}
     sep = at[1] - at[-1]
-    across, k = _best_shift(line(at[-1]), line(at[1]), _SHIFTS)
-    own = {side: _best_shift(line(at[side]), line(at[side] + side * sep), _SHIFTS)
-           for side in (-1, 1)}
+    across, k = band.best_shift(at[-1], at[1], _SHIFTS)
+    own = {side: band.best_shift(at[side], at[side] + side * sep, _SHIFTS) for side in (-1, 1)}
     agree = (abs(k - own[1][1]) <= SLANT_AGREE_PX and abs(k + own[-1][1]) <= SLANT_AGREE_PX)
     return across, min(own[1][0], own[-1][0]), agree
 
@@ -246,12 +298,15 @@ def no_grain_across(grey: NDArray[np.uint8], lut: F64, best: Candidate, p: Detec
         return
     width = float(np.median(best.width))
     keep = None if best.bridged is None else ~np.asarray(best.bridged, bool)
-    _one_surface(grey, lut, best.points, width, keep, x0, y0)
+    pts, keep = _oriented(best.points, keep)
+    band = _band(grey, lut, pts, width, keep)
+    if band is None:
+        return
+    _one_surface(band, best.points, x0, y0)
     if best.band_points is not None or width < MIN_BAND_SHARE * p.max_gap_px:
         return
-    pts, keep = _oriented(best.points, keep)
-    grain = edge_grain(grey, lut, pts, width, keep)
-    if grain is None or (side := shadow_side(grain)) is None:
+    grain = _edge_grain(band)
+    if (side := shadow_side(grain)) is None:
         return
     on, sheet = grain[side]
     raise AmbiguousSeam(
@@ -275,21 +330,15 @@ def no_one_surface(grey: NDArray[np.uint8], det: SeamDetection, p: DetectParams,
     not continue each other. Asked where the grain on each side, at the distance across the
     line, correlates at :data:`SHEET_MIN` or more, at the same slant.
     """
-    _one_surface(grey, linear_lut(p.gamma), det.points_px, det.gap_width_px, ~det.occluded,
-                 x0, y0)
+    pts, keep = _oriented(det.points_px, ~det.occluded)
+    band = _band(grey, linear_lut(p.gamma), pts, det.gap_width_px, keep)
+    if band is not None:
+        _one_surface(band, det.points_px, x0, y0)
 
 
-def _one_surface(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
-                 keep: NDArray[np.bool_] | None, x0: int, y0: int) -> None:
-    """:func:`no_one_surface` on ``points`` (px of ``grey``) of median band width ``width_px``.
-
-    ``x0, y0`` are added to the points reported.
-    """
-    pts, keep = _oriented(points, keep)
-    got = across_grain(grey, lut, pts, width_px, keep)
-    if got is None:
-        return
-    across, own, agree = got
+def _one_surface(band: _Band, points: F64, x0: int, y0: int) -> None:
+    """:func:`no_one_surface` on ``band``, along ``points`` (px, reported with ``x0, y0``)."""
+    across, own, agree = _across_grain(band)
     if agree and own >= SHEET_MIN and across >= ON_MIN and across >= ON_SHARE * own:
         raise SeamNotFound(
             f"the line chosen has one surface on both sides: the grain runs on across it "
