@@ -153,7 +153,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
             small = replace(small, reasons=[f"at full size: {why}; the search on the image "
                                             "shrunk took this one of the two",
                                             *small.reasons])
-        no_one_surface(sub, small, p, x0, y0)  # (the shrunk search's pixels lose the grain)
+        no_one_surface(sub, small, p, x0, y0)  # (not read on the image shrunk: asked here)
         if hint_arr is None:  # the lines the full-size search saw, on the seam read shrunk
             no_stem_on(small.points_px, small.gap_width_px or 3.0,
                        [c for look in traced for c in look], p, x0, y0)
@@ -228,7 +228,7 @@ def _detect_in(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
 
 def _one_line(sub: NDArray[np.uint8], lut: F64, best: Candidate, looked: list[Candidate],
               hint: F64 | None, p: DetectParams, x0: int, y0: int) -> None:
-    """Refuse ``best`` where a parallel line, a shadow in its band or a T-stem makes it doubtful.
+    """Refuse ``best`` where a parallel line, the sheets' grain or a T-stem makes it doubtful.
 
     The second is not asked where the job's nominal seam line (``hint``) chose ``best``.
     """

@@ -1,18 +1,24 @@
-"""A dark band may be the gap with one sheet in shadow beside it: that sheet's grain runs into it.
+"""The sheets' grain beside a seam: a shadow in its band, or one surface on both sides.
 
-A plate edge standing higher than the other casts a shadow on the lower sheet beside the gap.
-Where the shadow is about as dark as the gap's floor, the profiles fit one dark band, gap and
-shadow together, and its middle lies up to half the shadow's width off the joint: the levels do
-not say where in the band the gap is (README, *A shadow the sheet's grain runs into*: 20 of the
-39 wrong views of the extended tuning part). The texture says which side the shadow is on. A
-shadow darkens the sheet it falls on, whose grain (brushing and rolling marks, grit) runs on
-across the shadow's edge, scaled; at the gap's edge one sheet ends and its grain stops. Along the
-band, a line just inside each edge is compared with a line just outside it, each as its fine
-texture (log radiance less its running mean over :data:`HIGHPASS_PX`, which keeps the marks and
-drops light falloff and an edge's slow wander), at the slant the grain has on the sheet alone (two
-lines on the sheet as far apart). Where one edge carries the grain on and the other does not,
-:func:`no_grain_across` refuses the seam: one image still cannot tell how wide the gap in the
-band is. Edges are found on the band's median profile, a blurred edge read past its blur.
+Two things one image's levels cannot tell, its texture can (README, *The sheets' grain*).
+
+*A shadow in the band.* A plate edge standing higher than the other casts a shadow on the lower
+sheet beside the gap. Where the shadow is about as dark as the gap's floor, the profiles fit one
+dark band, gap and shadow together, and its middle lies up to half the shadow's width off the
+joint (20 of the 39 wrong views of the extended tuning part). A shadow darkens the sheet it falls
+on, whose grain (brushing and rolling marks, grit) runs on across the shadow's edge, scaled; at
+the gap's edge one sheet ends and its grain stops (:func:`edge_grain`, :func:`shadow_side`).
+
+*One surface on both sides.* A joint separates two sheets, whose grains do not continue each
+other; a line drawn, scratched or cut into one sheet or into the table (a pen line, a slot) has
+the same surface on both sides, and its grain runs on across the line (:func:`across_grain`).
+
+Lines parallel to the seam are read past the band's edges (found on its median profile, each
+line past the edge's blur), each as its fine texture (log radiance less its running mean over
+:data:`HIGHPASS_PX`, which keeps the marks and drops light falloff and an edge's slow wander),
+and compared at the slant the grain shows between two lines on one side alone (as far apart).
+:func:`no_grain_across` asks both questions of the seam chosen, :func:`no_one_surface` the second
+of a seam read on the image shrunk.
 
 Pixels are (u, v) of the image searched; levels are linear radiance.
 """
@@ -328,8 +334,11 @@ def no_one_surface(grey: NDArray[np.uint8], det: SeamDetection, p: DetectParams,
     or cut into one sheet or into the table (a pen or soapstone line, a scratch, a table's slot
     or grid line) has the same surface on both sides; a joint has two sheets, whose grains do
     not continue each other. Asked where the grain on each side, at the distance across the
-    line, correlates at :data:`SHEET_MIN` or more, at the same slant.
+    line, correlates at :data:`SHEET_MIN` or more, at the same slant. Not where ``p.grain`` is
+    off.
     """
+    if not p.grain:
+        return
     pts, keep = _oriented(det.points_px, ~det.occluded)
     band = _band(grey, linear_lut(p.gamma), pts, det.gap_width_px, keep)
     if band is not None:

@@ -54,8 +54,9 @@ class DetectParams:
     ``smaller``: when the search finds no seam, search the image shrunk by 2 and keep a seam
     found there only where the gap is soft at full size and the same seam is found shrunk by 3
     (:mod:`controller.vision.seam_smaller`: a close-up's wide, defocused gap).
-    ``grain``: refuse a dark band one of whose edges the grain of a sheet in shadow runs on
-    across (:mod:`controller.vision.seam_grain`); off on the image shrunk, whose pixels average
+    ``grain``: refuse a seam the sheets' grain runs on across, over one edge of its dark band (a
+    shadow beside the gap) or over the whole line (one surface on both sides: a pen line, a
+    slot; :mod:`controller.vision.seam_grain`); off on the image shrunk, whose pixels average
     the grain away.
     ``robust``: when no candidate of the profile model passes, look for the seam as a whole-image
     valley path (:mod:`controller.vision.seam_robust`: ragged, wide, covered or dark gaps).
