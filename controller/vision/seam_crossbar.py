@@ -24,7 +24,7 @@ import numpy as np
 
 from controller.errors import AmbiguousSeam
 from controller.vision.seam_coarse import nearest_px
-from controller.vision.seam_decision import GIVE_ROI, arc_length, summary_px
+from controller.vision.seam_decision import GIVE_ROI, arc_length, points_summary, summary_px
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_tee import MIN_ANGLE_DEG
 
@@ -80,11 +80,10 @@ def no_stem_on(points: F64, width_px: float, cands: list[Candidate], p: DetectPa
         found = stem_on(points, width_px, line)
         if found is not None:
             at, angle = found
-            seam = Candidate(polyline=points, coarse_score=0.0, length_px=0.0)
             raise AmbiguousSeam(
                 f"a line {c.length_px:.0f} px long ends on the seam candidate at "
                 f"{(at + [x0, y0]).round(0).tolist()} px from one side, at {angle:.0f} deg: a "
                 f"T-corner, whose joint is the line ending there (not measured: "
                 f"{c.why_rejected or 'weaker'}) and the candidate its crossbar, or a mark drawn "
                 f"up to the joint; refusing to choose: " + GIVE_ROI,
-                best_px=summary_px(seam, x0, y0), second_px=summary_px(c, x0, y0))
+                best_px=points_summary(points, x0, y0), second_px=summary_px(c, x0, y0))

@@ -266,13 +266,18 @@ def _across_grain(band: _Band) -> tuple[float, float, bool]:
     return across, min(own[1][0], own[-1][0]), agree
 
 
+def _runs_on(corr: float, own: float) -> bool:
+    """Whether a correlation ``corr`` across a line or an edge says the grain runs on across it.
+
+    ``own``: the grain's correlation over as far on one side alone (the one compared).
+    """
+    return own >= SHEET_MIN and corr >= ON_MIN and corr >= ON_SHARE * own
+
+
 def shadow_side(grain: dict[int, tuple[float, float]]) -> int | None:
     """The side whose sheet's grain runs on into the band while the other edge's stops, or None."""
-    def on(g: tuple[float, float]) -> bool:
-        return g[1] >= SHEET_MIN and g[0] >= ON_MIN and g[0] >= ON_SHARE * g[1]
-
     for side in (-1, 1):
-        if on(grain[side]) and grain[-side][0] < OFF_MAX:
+        if _runs_on(*grain[side]) and grain[-side][0] < OFF_MAX:
             return side
     return None
 
@@ -348,7 +353,7 @@ def no_one_surface(grey: NDArray[np.uint8], det: SeamDetection, p: DetectParams,
 def _one_surface(band: _Band, points: F64, x0: int, y0: int) -> None:
     """:func:`no_one_surface` on ``band``, along ``points`` (px, reported with ``x0, y0``)."""
     across, own, agree = _across_grain(band)
-    if agree and own >= SHEET_MIN and across >= ON_MIN and across >= ON_SHARE * own:
+    if agree and _runs_on(across, own):
         raise SeamNotFound(
             f"the line chosen has one surface on both sides: the grain runs on across it "
             f"(correlation {across:.2f}, at the slant each side shows; {own:.2f} or more on "
