@@ -17,8 +17,11 @@ or "no candidate on the joint", followed, where a candidate's coarse polyline ra
 (a search saw it; its refined line went beside it, or it was set aside), by that candidate's
 verdict (:func:`coarse_along`). Where that candidate has ends read as open (fading out inside a
 sheet), how far short of the true end each lies, along the truth (:func:`open_ends`), binned by
-the true end's kind. Prints the tables (markdown; the first counts each verdict by look family)
-and writes the rows (with each view's look family) as JSON.
+the true end's kind. For each view with no candidate on the joint, what the first way's coarse
+search and the profiles see along the true line (:mod:`bench.detect_unseen`: not seen, seen in
+pieces, seen whole; profiles fitting or not), a third table. Prints the tables (markdown; the
+first counts each verdict by look family) and writes the rows (with each view's look family and
+gap width) as JSON.
 
 The default part is ``tuning``, as for ``bench.detect_gallery``: reading the held-out part's
 failures one by one is how a rule gets fitted to it.
@@ -35,11 +38,13 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from bench.detect_cases import case_cached, case_list, load_case, view_truth
 from bench.detect_score import dist_to_polyline
+from bench.detect_unseen import unseen_readings, unseen_table
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
 from controller.vision.seam_centreline import TOO_WIDE
@@ -175,10 +180,14 @@ def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
             found = joint_candidate(stages, tp)  # where_lost's search, once for both uses
             stage, verdict = _lost_at(found, stages, tp)
             ends = [] if found is None else open_ends(found[1], tp, truth["end_kinds"])
+            # No candidate on the joint: what the coarse search and the profiles see along it.
+            unseen = None if found is not None else unseen_readings(
+                img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY), tp)
         else:
-            stage, verdict, ends = "returned", "", []
+            stage, verdict, ends, unseen = "returned", "", [], None
         rows.append({"case": list(case), "view": i, "stage": stage, "verdict": verdict,
-                     "family": truth["family"], "open_ends": ends})
+                     "family": truth["family"], "open_ends": ends, "unseen": unseen,
+                     "gap_px": float(truth["gap_px"])})
     return rows
 
 
@@ -234,6 +243,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.part == "heldout":
         print("(the held-out part: to measure with, not to tune on)")
     print(table(rows))
+    print("\n" + unseen_table(rows))
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     Path(a.out).write_text(json.dumps(rows, indent=1))
     return 0
