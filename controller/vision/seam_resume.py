@@ -57,10 +57,20 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
     # Every third profile first: a run of ``need`` (>= 9) profiles holds three consecutive ones
     # of them, a run of 4 to the border one; only the directions that show that are fitted in
     # full (the profiles are fitted independently, so the result is the same, at a third of the
-    # cost where nothing goes on beyond the end, the usual case).
+    # cost where nothing goes on beyond the end, the usual case). Three consecutive third
+    # profiles hold a sixth one: the sixth ones (and the third ones near the border) are fitted
+    # first, the other third ones only along directions where one of those fits.
     coarse = np.arange(0, len(ks), 3)
-    ok[:, coarse], centres[:, coarse] = _resume_fit(grey, lut, end_pt, dirs, ks[coarse], w_med,
-                                                    sides, p)
+    first = np.union1d(np.arange(0, len(ks), 6), coarse[coarse >= len(ks) - 4])
+    ok[:, first], centres[:, first] = _resume_fit(grey, lut, end_pt, dirs, ks[first], w_med,
+                                                  sides, p)
+    seen = [i for i in range(len(dirs)) if ok[i, first].any()]
+    second = np.setdiff1d(coarse, first)
+    if seen and len(second):
+        o, c = _resume_fit(grey, lut, end_pt, [dirs[i] for i in seen], ks[second], w_med, sides,
+                           p)
+        rows = np.array(seen, dtype=np.intp)
+        ok[np.ix_(rows, second)], centres[np.ix_(rows, second)] = o, c
     near_border = reach < _RESUME_REACH_PX
     keep = [i for i in range(len(dirs))
             if max((b - a for a, b in runs_of(ok[i, coarse])), default=0) >= 3
