@@ -20,17 +20,24 @@ Crossed with it, the share of full-resolution profiles across the true line (eve
 (:func:`controller.vision.seam_profiles.fit_at`): under half, the profile stage would refuse the
 joint even if a candidate lay on it (a gap between two bright ridges of ground strips is not
 the model's sheet-floor-sheet profile).
+
+``.venv/bin/python -m bench.detect_unseen [--photos DIR]`` prints the same readings along the
+real photographs' labelled lines (``../shared/data/real-seams``).
 """
 
 from __future__ import annotations
 
+import argparse
 import collections
+import sys
+from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from bench.real_seams import PHOTOS, labelled_photos
 from controller.vision.seam_coarse import coarse_candidates
 from controller.vision.seam_params import DetectParams
 from controller.vision.seam_profiles import fit_at, linear_lut, resample
@@ -107,3 +114,38 @@ def unseen_table(rows: list[dict[str, Any]]) -> str:
                        + " | ".join(str(count[(seen, fits, k)]) for k in looks)
                        + f" | {gap:.1f} |")
     return "\n".join(out)
+
+
+def photo_rows(root: Path = PHOTOS) -> list[dict[str, Any]]:
+    """:func:`unseen_readings` along each labelled photograph's line (``root``, score.py's
+    labels; photographs without a seam skipped), with its class."""
+    rows = []
+    for name, lab, grey in labelled_photos(root):
+        if not lab.get("seam_present", True):
+            continue
+        r = unseen_readings(grey, np.asarray(lab["polyline_px"], np.float64))
+        rows.append({"photo": name, **r, "class": " / ".join(unseen_class(r))})
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the readings along the real photographs' labelled lines; 0, or 1 without any."""
+    ap = argparse.ArgumentParser(description="What the coarse search and the profiles see "
+                                 "along the real photographs' labelled joints")
+    ap.add_argument("--photos", type=Path, default=PHOTOS, help="score.py's folder")
+    a = ap.parse_args(argv)
+    if not (a.photos / "labels").is_dir():
+        print(f"detect_unseen: no labels in {a.photos} (../shared/data/real-seams: see its "
+              "README)", file=sys.stderr)
+        return 1
+    rows = photo_rows(a.photos)
+    print("| photograph | coarse mask along the line | longest piece px | profiles fitting | "
+          "class |\n|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['photo']} | {r['mask_cover']:.2f} | {r['piece_px']:.0f} | "
+              f"{r['profile_share']:.2f} | {r['class']} |")
+    return 0 if rows else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

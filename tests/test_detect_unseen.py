@@ -73,3 +73,22 @@ def test_the_table_counts_views_by_what_was_seen_per_look() -> None:
     assert "| coarse search does not see it | profiles fail | 1 | 1 | 2.5 |" in md
     assert "| seen whole | profiles fail | 0 | 1 | 4.0 |" in md
     assert unseen_table([{"family": "plain", "unseen": None}]) == ""
+
+
+def test_the_photographs_readings_are_printed_per_label(tmp_path, capsys) -> None:
+    import json
+
+    import cv2
+
+    from bench.detect_unseen import main
+
+    (tmp_path / "images").mkdir()
+    (tmp_path / "labels").mkdir()
+    cv2.imwrite(str(tmp_path / "images" / "a.png"), _image(GAP))
+    (tmp_path / "labels" / "a.json").write_text(json.dumps(
+        {"image": "images/a.png", "polyline_px": TRUTH.tolist(), "seam_present": True}))
+    assert main(["--photos", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "| a | 1.00 |" in out and "seen whole / profiles fit |" in out
+    assert main(["--photos", str(tmp_path / "none")]) == 1
+    assert "no labels in" in capsys.readouterr().err
