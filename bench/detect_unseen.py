@@ -61,12 +61,12 @@ def unseen_readings(grey: NDArray[np.uint8], truth_px: NDArray[np.float64],
     p = p or DetectParams()
     lut = linear_lut(p.gamma)
     _, _, mask, f = coarse_candidates(grey, lut, p)
-    pts, nrm = resample(np.asarray(truth_px, np.float64), 4.0, 0.0)
+    pts, _ = resample(np.asarray(truth_px, np.float64), 4.0, 0.0)
     h, w = mask.shape
     u = np.clip(np.floor((pts[:, 0] + 0.5) / f).astype(np.int64), 0, w - 1)
     v = np.clip(np.floor((pts[:, 1] + 0.5) / f).astype(np.int64), 0, h - 1)
     near = cv2.dilate(mask, np.ones((3, 3), np.uint8))[v, u] > 0
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     touched = np.unique([labels[np.clip(v + dv, 0, h - 1), np.clip(u + du, 0, w - 1)]
                          for dv in (-1, 0, 1) for du in (-1, 0, 1)])
     touched = touched[touched > 0]

@@ -61,7 +61,9 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
     # profiles hold a sixth one: the sixth ones (and the third ones near the border) are fitted
     # first, the other third ones only along directions where one of those fits.
     coarse = np.arange(0, len(ks), 3)
-    first = np.union1d(np.arange(0, len(ks), 6), coarse[coarse >= len(ks) - 4])
+    near_border = reach < _RESUME_REACH_PX
+    first = np.union1d(np.arange(0, len(ks), 6),
+                       coarse[coarse >= len(ks) - 4] if near_border else coarse[:0])
     ok[:, first], centres[:, first] = _resume_fit(grey, lut, end_pt, dirs, ks[first], w_med,
                                                   sides, p)
     seen = [i for i in range(len(dirs)) if ok[i, first].any()]
@@ -71,7 +73,6 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
                            p)
         rows = np.array(seen, dtype=np.intp)
         ok[np.ix_(rows, second)], centres[np.ix_(rows, second)] = o, c
-    near_border = reach < _RESUME_REACH_PX
     keep = [i for i in range(len(dirs))
             if max((b - a for a, b in runs_of(ok[i, coarse])), default=0) >= 3
             or (near_border and ok[i, coarse[coarse >= len(ks) - 4]].any())]
