@@ -7,11 +7,10 @@ import numpy as np
 from bench.detect_unseen import unseen_class, unseen_readings, unseen_table
 
 H, W = 800, 1200
-X = np.arange(W, dtype=np.float64)
 TRUTH = np.column_stack([np.linspace(0, W - 1, 300), np.full(300, 400.0)])
 
 
-def _image(profile: np.ndarray, holes: list[tuple[int, int]] = (), seed: int = 0
+def _image(profile: np.ndarray, holes: tuple[tuple[int, int], ...] = (), seed: int = 0
            ) -> np.ndarray:
     """A sheet (linear radiance 0.5) with ``profile`` (added, linear, per row offset from the
     line at y = 400) across it, interrupted over ``holes`` (x ranges), gamma 2.2 and noise."""
@@ -45,7 +44,7 @@ def test_a_plain_sheet_is_not_seen_and_fits_no_profile() -> None:
 
 
 def test_a_gap_broken_every_200_px_is_seen_in_pieces() -> None:
-    holes = [(x, x + 60) for x in range(200, W, 260)]
+    holes = tuple((x, x + 60) for x in range(200, W, 260))
     r = unseen_readings(_image(GAP, holes), TRUTH)
     assert r["mask_cover"] >= 0.5 and r["piece_px"] < 300
     assert unseen_class(r)[0] == "seen in pieces"

@@ -77,7 +77,8 @@ def test_a_curved_seam_beyond_a_bead_is_still_the_gap_going_on(radius: float,
 
 def test_where_nothing_goes_on_only_every_sixth_profile_of_the_fan_is_fitted(monkeypatch) -> None:
     # The usual end, a sheet border with the table beyond: no profile of the fan fits a gap, so
-    # after every sixth profile (and the third ones near the border) nothing more is fitted. The
+    # after every sixth profile (and, near the image border, the third ones close to it) nothing
+    # more is fitted. The
     # result is the same as fitting every third one first (a run of three of those holds a sixth
     # one): the benchmark's 1000 tuning views gave the same seams before and after (README).
     from controller.vision import seam_resume
