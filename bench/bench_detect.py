@@ -435,6 +435,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="T-corner close-up pairs per part (with --sets ... tee)")
     ap.add_argument("--rough-pairs", type=int,
                     help="rough-sheet pairs per part (with --sets ... rough)")
+    ap.add_argument("--strip-pairs", type=int,
+                    help="ground-strip pairs per part (with --sets ... strip)")
     ap.add_argument("--classic", type=int, help="classic views per difficulty")
     ap.add_argument("--timing-runs", type=int, default=10, help="0: no timing")
     ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
@@ -446,6 +448,7 @@ def main(argv: list[str] | None = None) -> int:
     sizes = dict(QUICK if args.quick else FULL)
     for key, val in (("wide/heldout", args.pairs), ("wide/tuning", args.tuning_pairs),
                      ("pen", args.pen_pairs), ("tee", args.tee_pairs), ("rough", args.rough_pairs),
+                     ("strip", args.strip_pairs),
                      ("classic", args.classic)):
         if val is not None:
             sizes[key] = val

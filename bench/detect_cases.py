@@ -17,6 +17,10 @@ Sets (each case is one scene; ``classic`` cases are one view, the others a pair 
 - ``rough``: ``variety="rough"`` scenes (a wide look whose sheets change in brightness along the
   joint as much as the real photographs' do), seeds from 70000 up, easy, medium and hard in
   turn, the same views. Not in the default run (``--sets``).
+- ``strip``: ``variety="strip"`` scenes (the shop look as the real photographs the detector
+  refuses show it: a joint through both images between two ground strips whose outer edges are
+  crisp dark lines as long as it, unground scale beyond), seeds from 80000 up, easy, medium and
+  hard in turn, the same views. Not in the default run (``--sets``).
 
 Renders are cached as PNG (lossless; a JPEG look's artefacts are already in the image) with the
 truth in an .npz under bench/cache/detect/ (git-ignored), keyed by :data:`CACHE_TAG`, bumped when
@@ -44,9 +48,10 @@ CACHE = Path(os.environ.get("SEAMGUIDE_DETECT_CACHE",
                             Path(__file__).resolve().parent / "cache" / "detect"))
 CACHE_TAG = "v4"  # v4: a dark line at the ground strips' outer edges (shop look)
 #: First seed of each set (disjoint seed ranges, then split by sim_look.split_of).
-SEED_START = {"wide": 10000, "pen": 50000, "tee": 60000, "rough": 70000}
+SEED_START = {"wide": 10000, "pen": 50000, "tee": 60000, "rough": 70000, "strip": 80000}
 #: The sets that mix difficulties, and the difficulties each takes in turn.
-MIXED = {"pen": DIFFICULTIES, "tee": ("medium", "hard"), "rough": DIFFICULTIES}
+MIXED = {"pen": DIFFICULTIES, "tee": ("medium", "hard"), "rough": DIFFICULTIES,
+         "strip": DIFFICULTIES}
 #: A case: (set, difficulty, split, seed).
 Case = tuple[str, str, str, int]
 VIEW2_ROLL_DEG = float(np.degrees(np.arctan2(1704.0, 2272.0)))  # as controller/cell/dry_run.py
@@ -70,8 +75,9 @@ def case_list(kind_set: str, difficulty: str, split: str, n: int) -> list[Case]:
 #: Cases per group: classic views per difficulty, wide pairs per difficulty and part, pen pairs
 #: per part.
 FULL = {"classic": 52, "wide/heldout": 100, "wide/tuning": 50, "pen": 25, "tee": 25,
-        "rough": 30}
-QUICK = {"classic": 8, "wide/heldout": 10, "wide/tuning": 10, "pen": 6, "tee": 6, "rough": 6}
+        "rough": 30, "strip": 30}
+QUICK = {"classic": 8, "wide/heldout": 10, "wide/tuning": 10, "pen": 6, "tee": 6, "rough": 6,
+         "strip": 6}
 
 
 def plan(sizes: dict[str, int], difficulties: list[str], splits: list[str],

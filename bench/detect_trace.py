@@ -120,7 +120,7 @@ def shrunk_readings(grey: NDArray[np.uint8], truth: dict[str, Any],
 def main(argv: list[str] | None = None) -> int:
     """Print the trace of one cached view; 0, or 1 when the view is not in the cache."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("set", choices=("classic", "wide", "pen", "tee", "rough"))
+    ap.add_argument("set", choices=("classic", "wide", "pen", "tee", "rough", "strip"))
     ap.add_argument("difficulty", choices=("easy", "medium", "hard"))
     ap.add_argument("seed", type=int)
     ap.add_argument("view", type=int, choices=(0, 1))

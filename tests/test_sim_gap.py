@@ -1,6 +1,7 @@
 """The wide look's gap across the seam (drivers/sim/sim_gap.py), each phenomenon with its truth."""
 
 import numpy as np
+import pytest
 from sim_looks import NEUTRAL
 
 from controller.geometry.camera_model import default_camera
@@ -111,3 +112,23 @@ def test_ground_strip_edge_is_a_thin_dark_line_between_strip_and_sheet():
         assert lined[i] < 0.6 * np.median(lined[inside])
         assert lined[i] < 0.75 * np.median(lined[outside])
         assert plain[i] > 0.9 * np.median(plain[outside])  # no line without it
+
+
+def test_beyond_the_strips_the_sheet_is_unground_and_the_edge_is_straight():
+    # The strip variety's sheet beyond the ground strips (mill scale, rust) is `unground` times
+    # as bright as the metal, so the strip's edge is a step with a dark line along it (the
+    # photographs 1_x2 and 1_x5); the default look (unground 1) leaves the sheet as it was.
+    strip = dict(ground_mm=(2.0, 2.0), ground_gain=1.0, ground_wave_mm=0.0)
+    x, plain, r = profile(scene(**strip), half=24)
+    dark = profile(scene(**strip, unground=0.4), half=24)[1]
+    px_mm = r.gap_px / 1.6
+    beyond = np.abs(x) > 2.0 * px_mm + 3
+    within = (np.abs(x) < 2.0 * px_mm - 3) & (np.abs(x) > 0.5 * r.gap_px + 2)
+    assert np.allclose(np.median(dark[within]), np.median(plain[within]), rtol=0.05)
+    assert np.median(dark[beyond]) == pytest.approx(0.4 * np.median(plain[beyond]), rel=0.1)
+    # Straight: the step lies where the strip ends, within a px of 2 mm, on both sides.
+    for s in (-1, 1):
+        side = s * x > 0.5 * r.gap_px + 2
+        half_way = 0.7 * np.median(plain[within])
+        cross = np.abs(x[side][np.argmin(np.abs(dark[side] - half_way))])
+        assert abs(cross - 2.0 * px_mm) < 0.5 * px_mm + 1.0

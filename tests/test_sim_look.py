@@ -154,3 +154,20 @@ def test_the_rough_look_changes_along_the_joint_as_the_photographs_do():
     # Its scratches and pits look like a gap to the detector's profile test far more often than
     # a wide view's sheets (README: the rough set's 5-95 % takes in the photographs' 0.11-0.21).
     assert alike["wide"] < 0.02 and alike["rough"] > 0.05
+
+
+def test_the_strip_look_is_the_shop_look_with_the_photographs_strip_edges():
+    from drivers.sim.sim_scene import make_scene
+
+    for seed in (80000, 80001, 80002, 80003):
+        look = make_scene("straight", seed, "medium", variety="strip").look
+        assert look.variety == "strip" and look.family == "shop"
+        assert min(look.ground_mm) >= 5.0 and look.ground_edge_mm >= 0.3
+        assert look.ground_edge_depth >= 0.6 and 0.3 <= look.unground <= 0.65
+        assert look.ground_wave_mm <= 0.4 and look.corner_mm == 0.0
+    # A joint longer than the view: both ends leave the images.
+    assert make_scene("straight", 80001, "medium", variety="strip").chord_mm > 500.0
+    # The wide look of the same seeds is as it was (the strip's values come from a stream of
+    # their own, its family is forced to the shop look).
+    wide = make_scene("straight", 80000, "medium", variety="wide").look
+    assert wide.unground == 1.0 and wide.ground_wave_mm == 1.5

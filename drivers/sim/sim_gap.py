@@ -124,18 +124,26 @@ def _ground_width(scene: Scene, a: F32, d: F32) -> F32:
     look = scene.look
     assert look is not None
     ph = float(np.random.default_rng(scene.seed).uniform(0, 2 * np.pi))
-    wav = np.float32(1.5) * np.sin(a / np.float32(17.0) + np.float32(ph))
+    wav = np.float32(look.ground_wave_mm) * np.sin(a / np.float32(17.0) + np.float32(ph))
     return np.where(d < 0, np.float32(look.ground_mm[0]), np.float32(look.ground_mm[1])) + wav
 
 
 def ground_gain(scene: Scene, a: F32, d: F32) -> F32:
-    """Brightness gain (>= 1) of the ground strips beside the gap, with wavy soft outer edges."""
+    """Brightness gain of the ground strips (>= 1) and of the sheet beyond them.
+
+    The strips beside the gap have wavy soft outer edges; beyond them the sheet is unground
+    (``Look.unground`` times as bright, 1 unless the look says).
+    """
     look = scene.look
     assert look is not None
     if look.ground_mm == (0.0, 0.0):
         return np.ones_like(d)
-    m = np.clip(_ground_width(scene, a, d) - np.abs(d) + 0.5, 0.0, 1.0)
-    return np.asarray(1.0 + np.float32(look.ground_gain - 1.0) * np.nan_to_num(m), np.float32)
+    m = np.nan_to_num(np.clip(_ground_width(scene, a, d) - np.abs(d) + 0.5, 0.0, 1.0))
+    g = 1.0 + np.float32(look.ground_gain - 1.0) * m
+    if look.unground != 1.0:
+        # Beyond the strips the sheet is unground: mill scale and rust, darker than the metal.
+        g = g * (m + (1.0 - m) * np.float32(look.unground))
+    return np.asarray(g, np.float32)
 
 
 def ground_edge(scene: Scene, a: F32, d: F32) -> F32:

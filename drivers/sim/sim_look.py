@@ -29,6 +29,11 @@ draws one for a variety and difficulty:
   edge square to the joint; the sheets' corners there are square and the three plates flat, the
   third one sheet A's metal (the held-back close-ups: one end a T-corner, the other leaving the
   image).
+- ``strip``: the shop look as the real photographs show it where the detector refuses them
+  (``../shared/data/real-seams`` 1_x2, 1_x5): the joint runs through both images (a joint
+  longer than the view), between two ground strips whose outer edges are crisp dark lines as
+  long as the joint, beyond them the sheet unground (mill scale and rust, ``unground`` times as
+  bright), the strips' edges nearly straight. A line as strong as the joint, on one sheet.
 
 **Tuning and held-out parts.** :func:`split_of` puts every seed in one of two parts by a hash
 (about half each). Besides the seeds, the parts draw from *disjoint* ranges: each split parameter
@@ -47,7 +52,7 @@ from typing import Any
 import numpy as np
 
 SPLITS = ("tuning", "heldout")
-VARIETIES = ("classic", "wide", "pen", "tack_open", "tee", "rough")
+VARIETIES = ("classic", "wide", "pen", "tack_open", "tee", "rough", "strip")
 #: Table kinds: holes (classic 40-60 mm grid), perforated (hole grid, pitch 8-25 mm), slotted,
 #: plain, dark, grid_lines (engraved lines).
 TABLES_TUNING = ("holes", "perforated", "slotted", "plain", "dark")
@@ -98,7 +103,9 @@ class Look:
     the joint (0: no T-corner). ``mottle``: spread (standard deviation) of the sheets'
     log-brightness, a smooth random field of scales ``mottle_mm`` and four times that (0: none).
     ``marks``: thin dark marks (scratches 1-8 mm long, pits) in that field, per 100 mm^2 of
-    each sheet (0: none).
+    each sheet (0: none). ``unground``: brightness factor of the sheets beyond the ground strips
+    (mill scale, rust; 1: as the sheet). ``ground_wave_mm``: amplitude of the strips' wavy outer
+    edges.
     """
 
     variety: str = "wide"
@@ -142,6 +149,8 @@ class Look:
     mottle: float = 0.0
     mottle_mm: float = 2.0
     marks: float = 0.0
+    unground: float = 1.0
+    ground_wave_mm: float = 1.5
 
 
 #: Per difficulty: (noise DN, blur px, min visibility of the gap as valley depth / noise, chance
@@ -190,6 +199,8 @@ def draw_look(rng: np.random.Generator, seed: int, difficulty: str, variety: str
     family = "shop" if r < 0.25 else ("closeup" if r < 0.42 and difficulty != "easy" else "plain")
     if variety == "tee":
         family = "closeup"
+    if variety == "strip":
+        family = "shop"
     standoff = float(rng.uniform(300.0, 450.0)) if family != "closeup" else \
         float(rng.uniform(150.0, 220.0))
     base: dict[str, Any] = {
@@ -275,6 +286,17 @@ def draw_look(rng: np.random.Generator, seed: int, difficulty: str, variety: str
         # spreads below the sheet's mean), not only out of the sensor's noise.
         look["gap_contrast"] = max(look["gap_contrast"],
                                    1.0 - float(np.exp(-2.0 * look["mottle"])))
+    if variety == "strip":
+        # A stream of its own, as the edge line's: the shop look drawn before it is the one a
+        # wide scene of this seed would have.
+        srng = np.random.default_rng([seed, 0x57])
+        look.update(ground_edge_mm=float(srng.uniform(0.3, 0.7)),
+                    ground_edge_depth=float(srng.uniform(0.6, 0.9)),
+                    unground=_binned(srng, 0.3, 0.65, split),
+                    ground_wave_mm=float(srng.uniform(0.0, 0.4)),
+                    rust=float(srng.uniform(0.5, 1.0)), corner_mm=0.0)
+        # Longer than the view: the joint leaves both images, as in the photographs.
+        base["length_mm"] = float(srng.uniform(520.0, 600.0))
     if variety == "tee":
         # A stream of its own, as the edge line's.
         trng = np.random.default_rng([seed, 0x7E])
