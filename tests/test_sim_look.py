@@ -171,3 +171,14 @@ def test_the_strip_look_is_the_shop_look_with_the_photographs_strip_edges():
     # their own, its family is forced to the shop look).
     wide = make_scene("straight", 80000, "medium", variety="wide").look
     assert wide.unground == 1.0 and wide.ground_wave_mm == 1.5
+
+
+def test_the_strip_set_draws_its_own_seeds_in_both_parts_mixing_difficulties():
+    from bench.detect_cases import case_list, plan
+    from drivers.sim.sim_look import split_of
+
+    cases = case_list("strip", "", "heldout", 6)
+    assert [c[1] for c in cases] == ["easy", "medium", "hard"] * 2
+    assert all(c[0] == "strip" and c[3] >= 80000 and split_of(c[3]) == "heldout" for c in cases)
+    groups = plan({"strip": 4}, ["easy"], ["tuning", "heldout"], ["strip"])
+    assert sorted(groups) == ["strip/mixed/heldout", "strip/mixed/tuning"]
