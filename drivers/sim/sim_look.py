@@ -287,8 +287,8 @@ def draw_look(rng: np.random.Generator, seed: int, difficulty: str, variety: str
         look["gap_contrast"] = max(look["gap_contrast"],
                                    1.0 - float(np.exp(-2.0 * look["mottle"])))
     if variety == "strip":
-        # A stream of its own, as the edge line's: the shop look drawn before it is the one a
-        # wide scene of this seed would have.
+        # A stream of its own, as the edge line's: the shop look's values drawn before it stay
+        # as they are, these replace some of them.
         srng = np.random.default_rng([seed, 0x57])
         look.update(ground_edge_mm=float(srng.uniform(0.3, 0.7)),
                     ground_edge_depth=float(srng.uniform(0.6, 0.9)),
