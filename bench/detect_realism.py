@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bench.detect_cases import case_cached, case_list, load_case, render_case, view_truth
-from bench.real_seams import PHOTOS, labelled_photos
+from bench.real_seams import PHOTOS, have_photos, labelled_photos
 from controller.vision.seam_params import DetectParams
 from controller.vision.seam_profiles import bilinear, fit_at, linear_lut, resample
 
@@ -200,9 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--photos", type=Path, default=PHOTOS)
     ap.add_argument("--out", default="bench/out/detect_realism.json")
     a = ap.parse_args(argv)
-    if not (a.photos / "labels").is_dir():
-        print(f"detect_realism: no labelled photographs in {a.photos} (../shared/data/"
-              "real-seams beside the checkout)", file=sys.stderr)
+    if not have_photos(a.photos, "detect_realism"):
         return 1
     photos = photo_rows(a.photos)
     sim = simulated_rows(a.pairs, a.kind_set)

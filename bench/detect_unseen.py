@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import collections
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +36,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from bench.real_seams import PHOTOS, labelled_photos
+from bench.real_seams import PHOTOS, have_photos, labelled_photos
 from controller.vision.seam_coarse import coarse_candidates
 from controller.vision.seam_params import DetectParams
 from controller.vision.seam_profiles import fit_at, linear_lut, resample
@@ -134,9 +133,7 @@ def main(argv: list[str] | None = None) -> int:
                                  "along the real photographs' labelled joints")
     ap.add_argument("--photos", type=Path, default=PHOTOS, help="score.py's folder")
     a = ap.parse_args(argv)
-    if not (a.photos / "labels").is_dir():
-        print(f"detect_unseen: no labels in {a.photos} (../shared/data/real-seams: see its "
-              "README)", file=sys.stderr)
+    if not have_photos(a.photos, "detect_unseen"):
         return 1
     rows = photo_rows(a.photos)
     print("| photograph | coarse mask along the line | longest piece px | profiles fitting | "

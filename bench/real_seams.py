@@ -9,6 +9,7 @@ centreline, image px), ``gap_width_px``, ``occluded_spans`` and ``seam_present``
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -36,3 +37,12 @@ def labelled_photos(root: Path = PHOTOS, need: tuple[str, ...] = ("image", "poly
         if img is None:
             raise FileNotFoundError(f"cannot read {root / lab['image']} (label {lab_path})")
         yield lab_path.stem, lab, img
+
+
+def have_photos(root: Path, tool: str) -> bool:
+    """Whether ``root`` holds score.py's labels; if not, says so on stderr for ``tool``."""
+    if (root / "labels").is_dir():
+        return True
+    print(f"{tool}: no labelled photographs in {root} (../shared/data/real-seams beside the "
+          "checkout: see its README)", file=sys.stderr)
+    return False

@@ -90,4 +90,4 @@ def test_the_photographs_readings_are_printed_per_label(tmp_path, capsys) -> Non
     out = capsys.readouterr().out
     assert "| a | 1.00 |" in out and "seen whole / profiles fit |" in out
     assert main(["--photos", str(tmp_path / "none")]) == 1
-    assert "no labels in" in capsys.readouterr().err
+    assert "no labelled photographs in" in capsys.readouterr().err
