@@ -52,15 +52,16 @@ def unseen_readings(grey: NDArray[np.uint8], truth_px: NDArray[np.float64],
     """What the coarse search and the profiles see along the true centreline ``truth_px``
     ((M, 2) px of ``grey``, the full image).
 
-    ``mask_cover``: share of points along it (every 4 px) with a pixel of the first way's valley
-    mask within one coarse pixel; ``piece_px``: the longest mask piece (8-connected) touching
-    it, as the diagonal of its bounding box in full-resolution px (how the coarse search
-    measures a piece); ``profile_share``: share of profiles across it that fit a gap.
+    ``mask_cover``: share of points along it (every ``p.step_px``, where the profiles are read)
+    with a pixel of the first way's valley mask within one coarse pixel; ``piece_px``: the
+    longest mask piece (8-connected) touching it, as the diagonal of its bounding box in
+    full-resolution px (how the coarse search measures a piece); ``profile_share``: share of
+    profiles across it that fit a gap.
     """
     p = p or DetectParams()
     lut = linear_lut(p.gamma)
     _, _, mask, f = coarse_candidates(grey, lut, p)
-    pts, _ = resample(np.asarray(truth_px, np.float64), 4.0, 0.0)
+    pts, nrm = resample(np.asarray(truth_px, np.float64), p.step_px, 0.0)
     h, w = mask.shape
     u = np.clip(np.floor((pts[:, 0] + 0.5) / f).astype(np.int64), 0, w - 1)
     v = np.clip(np.floor((pts[:, 1] + 0.5) / f).astype(np.int64), 0, h - 1)
@@ -70,7 +71,7 @@ def unseen_readings(grey: NDArray[np.uint8], truth_px: NDArray[np.float64],
                          for dv in (-1, 0, 1) for du in (-1, 0, 1)])
     touched = touched[touched > 0]
     diag = np.hypot(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT]) * f
-    fit = fit_at(grey, lut, *resample(np.asarray(truth_px, np.float64), p.step_px, 0.0), p)
+    fit = fit_at(grey, lut, pts, nrm, p)
     return {"mask_cover": round(float(near.mean()), 3),
             "piece_px": round(float(max((diag[k] for k in touched), default=0.0)), 1),
             "profile_share": round(float(np.mean(fit["valid"])), 3)}

@@ -62,8 +62,8 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
     # first, the other third ones only along directions where one of those fits.
     coarse = np.arange(0, len(ks), 3)
     near_border = reach < _RESUME_REACH_PX
-    first = np.union1d(np.arange(0, len(ks), 6),
-                       coarse[coarse >= len(ks) - 4] if near_border else coarse[:0])
+    tail = coarse[coarse >= len(ks) - 4]  # the third profiles next to the border
+    first = np.union1d(np.arange(0, len(ks), 6), tail if near_border else coarse[:0])
     ok[:, first], centres[:, first] = _resume_fit(grey, lut, end_pt, dirs, ks[first], w_med,
                                                   sides, p)
     seen = [i for i in range(len(dirs)) if ok[i, first].any()]
@@ -75,7 +75,7 @@ def gap_resumes(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64, w_med
         ok[np.ix_(rows, second)], centres[np.ix_(rows, second)] = o, c
     keep = [i for i in range(len(dirs))
             if max((b - a for a, b in runs_of(ok[i, coarse])), default=0) >= 3
-            or (near_border and ok[i, coarse[coarse >= len(ks) - 4]].any())]
+            or (near_border and ok[i, tail].any())]
     rest = np.setdiff1d(np.arange(len(ks)), coarse)
     if keep and len(rest):
         sub = [dirs[i] for i in keep]
