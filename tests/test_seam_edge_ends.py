@@ -34,6 +34,13 @@ def test_a_gap_running_out_of_the_image_is_seen_to_the_edge():
     (dist, share, over_table), kinds = _read(img, 980.0)
     assert abs(dist - 19.5) < 0.6 and share == 1.0 and not over_table
     assert kinds == ("sheet border", "image border")
+    # The end called the image border lies on it: the centreline carried on to the edge, seen.
+    c = _cand(980.0)
+    correct_edge_ends(img, LUT, [c])
+    assert c.points is not None and c.bridged is not None and c.width is not None
+    assert np.allclose(c.points[-1], [999.5, 300.0], atol=0.01)
+    assert len(c.bridged) == len(c.points) == len(c.width) and not c.bridged.any()
+    assert abs(c.length_px - 799.5) < 0.01
 
 
 def test_a_gap_covered_up_to_the_edge_leaves_the_image_under_the_patch():
@@ -45,6 +52,23 @@ def test_a_gap_covered_up_to_the_edge_leaves_the_image_under_the_patch():
     (dist, share, over_table), kinds = _read(img, 944.0)
     assert share < 0.2 and not over_table
     assert kinds == ("sheet border", "image border")
+    # It is carried on to the edge under the patch, reported as occluded there (not before).
+    c = _cand(944.0)
+    n = len(c.points)
+    correct_edge_ends(img, LUT, [c])
+    assert c.points is not None and c.bridged is not None
+    assert np.allclose(c.points[-1], [999.5, 300.0], atol=0.01)
+    assert np.all(np.diff(c.points[:, 0]) > 0) and np.allclose(c.points[:, 1], 300.0)
+    assert not c.bridged[:n].any()
+    added = c.points[n:, 0]
+    assert c.bridged[n:][added > 956.0].all() and c.bridged[n:].mean() > 0.8
+    # The same at the first end (the points reversed: the first one is the end near the edge).
+    r = _cand(944.0)
+    r.points, r.width = r.points[::-1].copy(), r.width[::-1].copy()
+    r.end_kinds = ("image border", "sheet border")
+    correct_edge_ends(img, LUT, [r])
+    assert r.points is not None and np.allclose(r.points[0], [999.5, 300.0], atol=0.01)
+    assert r.end_kinds == ("image border", "sheet border")
 
 
 def test_sheets_ending_before_the_edge_make_no_image_border_end():
@@ -55,6 +79,9 @@ def test_sheets_ending_before_the_edge_make_no_image_border_end():
     (dist, share, over_table), kinds = _read(img, 956.0)
     assert share < 0.2 and over_table
     assert kinds == ("sheet border", "sheet border")
+    c = _cand(956.0)
+    correct_edge_ends(img, LUT, [c])
+    assert c.points is not None and c.points[-1][0] == 956.0  # a sheet border stays where read
     # A rejected line is not this check's business.
     c = _cand(956.0)
     c.why_rejected = "dark line of 756 px fades out inside a sheet"

@@ -10,10 +10,16 @@ more than 12 px inside the image on the simulator's extended tuning part was wro
 the end and the edge the two differ: beyond a sheet border lies the table, no gap and darker
 than the sheets; over a tack weld the bead or the sheets go on. An end more than 8 px inside
 the image whose way to the edge shows the gap on under a third of its profiles and lies over a
-dark table is a sheet border (``joint_end``) at the step the end rules stopped at.
+dark table is a sheet border (``joint_end``) at the step the end rules stopped at. Any other
+such end is where the seam leaves the image: its centreline is carried on straight to the edge
+(an end called the image border lies on it), the stretch where no gap is seen reported as
+occluded (README, *An image-border end on the border*).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,6 +54,25 @@ def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: floa
     (:func:`controller.vision.seam_wedge.sheet_levels`), as
     :func:`controller.vision.seam_ends.darker_than_sheets` judges a dark table.
     """
+    way = _way_to_edge(grey, lut, pts, width_px)
+    seen = way.seen[way.inside]
+    return way.dist, (float(np.mean(seen)) if len(seen) else None), way.over_table
+
+
+@dataclass
+class _Way:
+    """The way from a seam's last point to the image edge (:func:`_way_to_edge`)."""
+
+    tang: F64  # the course, unit
+    dist: float  # px along ``tang`` to the edge
+    ks: F64  # px along ``tang`` of the profiles
+    seen: NDArray[np.bool_]  # per profile: the gap shows (False where not wholly inside)
+    inside: NDArray[np.bool_]  # per profile: wholly inside the image
+    over_table: bool
+
+
+def _way_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: float) -> _Way:
+    """:func:`gap_seen_to_edge`'s reading, profile by profile, with the course taken."""
     H, W = grey.shape
     s = arc_length(pts)
     j = min(int(np.searchsorted(s, s[-1] - _TANGENT_PX)), len(pts) - 2)
@@ -61,21 +86,24 @@ def gap_seen_to_edge(grey: NDArray[np.uint8], lut: F64, pts: F64, width_px: floa
     # The profile averaged over 2 px before its darkest point is taken: the minimum of single
     # samples finds a dip in the noise of a dark table.
     box = np.ones(4) / 4.0
-    seen: list[bool] = []
+    ks = np.arange(_STEP_PX, dist - 1.0, _STEP_PX)
+    seen = np.zeros(len(ks), bool)
+    inside = np.zeros(len(ks), bool)
     brighter: list[F64] = []
-    for k in np.arange(_STEP_PX, dist - 1.0, _STEP_PX):
+    for i, k in enumerate(ks):
         q = pts[-1] + k * tang + np.outer(os_, nrm)
-        val, inside = bilinear(grey, lut, q[:, 0], q[:, 1])
-        if not inside.all():
+        val, ins = bilinear(grey, lut, q[:, 0], q[:, 1])
+        if not ins.all():
             continue
+        inside[i] = True
         m_left, m_right = float(np.median(val[left])), float(np.median(val[right]))
         brighter.append(val[left] if m_left >= m_right else val[right])
-        seen.append(float(np.convolve(val, box, mode="same")[core].min())
-                    < DIP * min(m_left, m_right))
+        seen[i] = (float(np.convolve(val, box, mode="same")[core].min())
+                   < DIP * min(m_left, m_right))
     sheets = sheet_levels(grey, lut, pts[-1], tang, nrm, w)
     over_table = bool(brighter and sheets is not None
                       and darker_than_sheets(np.concatenate(brighter), min(sheets)))
-    return dist, (float(np.mean(seen)) if seen else None), over_table
+    return _Way(tang, dist, ks, seen, inside, over_table)
 
 
 def correct_edge_ends(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate]) -> None:
@@ -85,7 +113,8 @@ def correct_edge_ends(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate])
     more than :data:`EDGE_CHECK_PX` inside the image, where the way to the edge shows the gap on
     fewer than :data:`SEEN_SHARE` of its profiles and lies over a dark table
     (:func:`gap_seen_to_edge`), is where the sheets end: its kind becomes ``"sheet border"``
-    (``joint_end``), the point stays (the step the end rules stopped at).
+    (``joint_end``), the point stays (the step the end rules stopped at). Any other such end is
+    carried on to the edge (:func:`_carry_to_edge`).
     """
     for c in cands:
         pts = c.points if c.points is not None else c.polyline
@@ -96,9 +125,48 @@ def correct_edge_ends(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate])
         for end, kind in enumerate(kinds):
             if kind != "image border":
                 continue
-            dist, share, over_table = gap_seen_to_edge(grey, lut,
-                                                       pts if end == 1 else pts[::-1], w)
-            if (dist > EDGE_CHECK_PX and share is not None and share < SEEN_SHARE
-                    and over_table):
+            pts = c.points if c.points is not None else c.polyline
+            way = _way_to_edge(grey, lut, pts if end == 1 else pts[::-1], w)
+            if way.dist <= EDGE_CHECK_PX:
+                continue
+            seen = way.seen[way.inside]
+            if len(seen) and float(np.mean(seen)) < SEEN_SHARE and way.over_table:
                 kinds[end] = "sheet border"
+            elif c.points is not None:
+                _carry_to_edge(c, end, way)
         c.end_kinds = (kinds[0], kinds[1])
+
+
+def _carry_to_edge(c: Candidate, end: int, way: _Way) -> None:
+    """Carry ``c``'s centreline on from its ``end`` (0 first, 1 last) straight to the image edge.
+
+    A seam that leaves the image ends on the image border; where the end rules stopped short of
+    it (a tack weld or spatter over the joint near the edge, beyond which nothing can be read)
+    the seam runs on under it. Points every :data:`_STEP_PX` x 2 along ``way.tang``, the last on
+    the edge; each is ``bridged`` (reported as an occluded span) unless the profile nearest it
+    shows the gap. The band's centreline of a split shadow (``band_points``) is carried on
+    alongside, the width held at the last point's.
+    """
+    assert c.points is not None
+    n = len(c.points)
+    ks = np.append(np.arange(2 * _STEP_PX, way.dist - _STEP_PX, 2 * _STEP_PX), way.dist)
+    if len(way.ks):
+        near = np.clip(np.searchsorted(way.ks, ks), 0, len(way.ks) - 1)
+        unseen = ~way.seen[near]
+    else:
+        unseen = np.ones(len(ks), bool)
+    step = np.outer(ks, way.tang)
+
+    def grow(a: NDArray[Any], more: NDArray[Any]) -> NDArray[Any]:
+        return np.concatenate([a, more]) if end == 1 else np.concatenate([more[::-1], a])
+
+    last = c.points[-1] if end == 1 else c.points[0]
+    c.points = grow(c.points, last + step)
+    bridged = c.bridged if c.bridged is not None else np.zeros(n, bool)
+    c.bridged = grow(bridged, unseen)
+    if c.width is not None and len(c.width) == n:
+        c.width = grow(c.width, np.full(len(ks), c.width[-1] if end == 1 else c.width[0]))
+    if c.band_points is not None and len(c.band_points) == n:
+        b_last = c.band_points[-1] if end == 1 else c.band_points[0]
+        c.band_points = grow(c.band_points, b_last + step)
+    c.length_px = float(arc_length(c.points)[-1])
