@@ -54,11 +54,13 @@ from bench.detect_cases import (
     FULL,
     QUICK,
     case_cached,
+    libraries,
     load_case,
     make_case_scene,
     plan,
     render_case,
     render_order,
+    rendered_with,
     view_truth,
 )
 from bench.detect_score import end_kinds_of, score_view
@@ -480,6 +482,7 @@ def main(argv: list[str] | None = None) -> int:
         "commit": _git("rev-parse", "--short", "HEAD"),
         "detector_commit": _git("log", "-1", "--format=%h (%cd)", "--date=format:%H:%M",
                                 "--", "controller/vision"),
+        "libraries": libraries(), "rendered_with": rendered_with(cases),
         "summary": {key: {n: summarise(r, n) for n in ("ours", "published")}
                     for key, r in rows.items()},
         "reliability": {part: reliability([r for key, rs in rows.items() for r in rs
@@ -546,7 +549,10 @@ def markdown(rep: dict[str, Any]) -> str:
 
     lines = [f"Detector: commit {rep['detector_commit']} (tree {rep['commit']}). Render "
              f"{rep['render_s']:.0f} s (cached renders are not redone), detection and scoring "
-             f"{rep['detect_s']:.0f} s, whole run {rep['total_s']:.0f} s.", "",
+             f"{rep['detect_s']:.0f} s, whole run {rep['total_s']:.0f} s. Detected with "
+             f"{rep.get('libraries', '?')}; views rendered with "
+             + ", ".join(f"{k} ({n} cases)" for k, n in rep.get("rendered_with", {}).items())
+             + ".", "",
              "| set / difficulty / part | detector | views | found (of them, a joint end at the "
              "image border called image_border) | refused | wrong (pen line) | crash |",
              "|---|---|---|---|---|---|---|"]

@@ -187,8 +187,34 @@ def render_case(case: Case) -> str:
         for k, P in enumerate(r.pen_lines_px):
             truth[f"pen{i}_{k}"] = P
     truth["seam_points_mm"] = scene.seam_points_mm
+    truth["rendered_with"] = libraries()
     np.savez(str(stem) + ".npz", **truth)
     return "rendered"
+
+
+def libraries() -> str:
+    """The versions of the libraries a render's pixels depend on (numpy's and OpenCV's).
+
+    Renders are cached across runs and library upgrades: a new OpenCV changed rendered views
+    (twenty-second session: rendered again in a fresh environment, OpenCV 4.14.0, the strip
+    set's counts moved by one view in each part with the same detector), so a report says what
+    its renders were made with (:func:`rendered_with`).
+    """
+    return f"numpy {np.__version__}, opencv {cv2.__version__}"
+
+
+def rendered_with(cases: list[Case]) -> dict[str, int]:
+    """How many of the cached ``cases`` were rendered with each library set ("unknown": before
+    the renders recorded it)."""
+    out: dict[str, int] = {}
+    for case in cases:
+        path = _stem(case).with_suffix(".npz")
+        if not path.exists():
+            continue
+        with np.load(str(path)) as z:
+            key = str(z["rendered_with"]) if "rendered_with" in z.files else "unknown"
+        out[key] = out.get(key, 0) + 1
+    return out
 
 
 def load_case(case: Case) -> tuple[list[np.ndarray], dict[str, Any]]:

@@ -120,3 +120,22 @@ def test_the_reliability_table_has_a_column_per_part_and_none_without_one() -> N
     assert "| 0.50-0.60 | - | 0/1 found, 1 wrong |" in lines
     # A run of the classic set alone: no table (it was a header without columns).
     assert bench_detect._reliability_lines({}) == []
+
+
+def test_a_report_says_what_its_cached_renders_were_made_with(tmp_path, monkeypatch) -> None:
+    # Renders are cached across library upgrades (a new OpenCV changed rendered views): each
+    # render records the libraries, and a report counts the cases by them.
+    import cv2
+    import numpy as np
+
+    from bench import detect_cases
+
+    monkeypatch.setattr(detect_cases, "CACHE", tmp_path)
+    old, new, missing = (("wide", "easy", "tuning", s) for s in (1, 2, 3))
+    for case, extra in ((old, {}), (new, {"rendered_with": detect_cases.libraries()})):
+        path = detect_cases._stem(case).with_suffix(".npz")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(str(path), n_views=2, **extra)
+    assert cv2.__version__ in detect_cases.libraries()
+    assert detect_cases.rendered_with([old, new, missing]) == {
+        "unknown": 1, detect_cases.libraries(): 1}
