@@ -4,6 +4,7 @@ noise): a horizontal gap along y = 300 in a 1000 px wide image, the candidate's 
 toward +x."""
 
 import numpy as np
+import pytest
 from test_seam_wedge import LUT, S, _render, _sheets
 
 from controller.vision.seam_edge_ends import correct_edge_ends, gap_seen_to_edge
@@ -122,3 +123,23 @@ def test_a_rendered_seam_ending_at_a_sheet_border_near_the_edge_ends_at_a_joint_
         i = int(np.argmin([np.linalg.norm(e - truth[-k]) for e in det.endpoints_px]))
         assert det.end_kinds[i] == "joint_end"
         assert np.linalg.norm(det.endpoints_px[i] - truth[-k]) <= 3.0 + r.end_tol_px  # scorer's
+
+
+def test_a_rendered_seam_leaving_the_image_under_a_tack_weld_reaches_the_border() -> None:
+    # Strip medium tuning 80021, view 1: a tack weld covers the joint where it leaves the image
+    # at the top; the end was returned as the image border 39 px inside the image (54 px from
+    # the true end, a wrong seam for the benchmark). Now it is carried on to the border, the
+    # stretch under the weld reported as occluded, and the seam is found.
+    from test_seam_robust import _rendered_view
+
+    from bench.detect_score import score_view
+    from controller.vision.seam_detect import detect_seam
+
+    img, truth, cam = _rendered_view(("strip", "medium", "tuning", 80021), 1)
+    det = detect_seam(img, camera=cam)
+    assert det.end_kinds == ("image_border", "image_border")
+    top = det.points_px[np.argmin(det.points_px[:, 1])]
+    assert top[1] == pytest.approx(-0.5, abs=0.01)
+    assert det.occluded_spans_px  # the weld at the border, at least
+    truth["image_size"] = (cam.width, cam.height)
+    assert score_view(det.points_px, truth, list(det.end_kinds))["result"] == "found"

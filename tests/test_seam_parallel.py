@@ -76,3 +76,48 @@ def test_a_pen_line_returned_as_the_seam_is_refused() -> None:
     img, truth, cam = _rendered_view(("wide", "medium", "tuning", 10284), 0)
     with pytest.raises(AmbiguousSeam, match="parallel"):
         detect_seam(img, camera=cam)
+
+
+def clipped(level_above: float, upto: int = 440) -> np.ndarray:
+    """A lone seam through the image (``sheets(None)``) with the sheet above it brighter from
+    ``upto`` px down to 590 px: at ``level_above`` (255: clipped white, as a ground strip in
+    the light's glare) or just under the sensor's top."""
+    def fill(m):
+        m[:] = 170.0
+        m[upto * S:590 * S, :] = level_above
+        m[600 * S:, :] = 150.0
+        m[598 * S:602 * S, :] = 30.0
+    return render(fill, 5)
+
+
+def test_a_seam_through_the_image_beside_a_clipped_white_sheet_is_refused() -> None:
+    # 150 of the 190 px above the seam clipped: a pen line or the joint there would not show.
+    from controller.errors import SeamNotFound
+    from controller.vision.seam_parallel import BLIND_SHARE, clipped_side
+
+    img = clipped(255.0)
+    share = clipped_side(img, LUT, line(600.0), 4.0, DetectParams())
+    assert 0.7 < share < 0.85 and share >= BLIND_SHARE
+    with pytest.raises(SeamNotFound, match="clipped white") as err:
+        detect_seam(img)
+    assert err.value.details["clipped_share"] == pytest.approx(share, abs=0.02)
+    # Bright but not clipped (the sensor's top not reached), or clipped on a narrower strip:
+    # the seam is returned.
+    for img in (clipped(235.0), clipped(255.0, upto=540)):
+        assert clipped_side(img, LUT, line(600.0), 4.0, DetectParams()) < BLIND_SHARE
+        det = detect_seam(img)
+        assert np.abs(det.points_px[:, 1] - 600.0).max() < 1.0
+
+
+def test_a_pen_line_on_a_clipped_ground_strip_is_not_returned() -> None:
+    # Strip hard tuning 80032, view 0: the joint's ground strip clipped white hides the 3.4 px
+    # gap, and a pen line drawn on it 96 px away was returned at confidence 1.00, the one
+    # candidate (twenty-second session).
+    from test_seam_robust import _rendered_view
+
+    from controller.errors import SeamNotFound
+
+    img, truth, cam = _rendered_view(("strip", "hard", "tuning", 80032), 0)
+    assert len(truth["pens"]) == 1
+    with pytest.raises(SeamNotFound, match="clipped white"):
+        detect_seam(img, camera=cam)
