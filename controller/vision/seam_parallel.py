@@ -8,9 +8,7 @@ returned line, the straightened strip of the image (``p.pattern_offset_px`` each
 every 12 px along the line) is read for valleys at every offset: a line seen as a valley on
 about as many rows as the returned line itself, at a constant offset beside it, is a second
 candidate for the joint, and the choice is refused (:func:`parallel_valley`,
-:func:`no_parallel_valley`). Where one side of that strip is mostly clipped white (overexposed:
-a ground strip in the light's glare), no valley can be seen there, neither a pen line nor the
-joint itself, and the returned line is refused too (:func:`clipped_side`).
+:func:`no_parallel_valley`).
 """
 
 from __future__ import annotations
@@ -18,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.errors import AmbiguousSeam, SeamNotFound
+from controller.errors import AmbiguousSeam
 from controller.vision.seam_decision import GIVE_ROI, summary_px
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import bilinear, resample
@@ -37,10 +35,6 @@ OWN_SHARE = 0.9
 #: of the rows: a ragged, rusty or tack-welded gap is seen so on fewer, a ground strip's edge
 #: beside it on more (real photograph 1_x3: 39 % against 68 %, a joint).
 MIN_OWN = 0.5
-#: A side of the strip is blind where this share of it (inside the image, from the nearest
-#: offset looked at out) is at the sensor's top (:data:`CLIPPED_LEVEL` or brighter).
-BLIND_SHARE = 0.4
-CLIPPED_LEVEL = 250  # 8-bit level from which a pixel counts as clipped (overexposed)
 _WOBBLE = 2  # px: a hand-drawn line wanders; its valley is looked for within this of an offset
 _ROW_PX = 12.0  # px between the rows read across the seam (a share of rows needs no more)
 
@@ -95,47 +89,16 @@ def parallel_valley(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: fl
     return None
 
 
-def clipped_side(grey: NDArray[np.uint8], lut: F64, points: F64, width_px: float,
-                 p: DetectParams) -> float:
-    """The larger of the two sides' clipped shares of the strip beside ``points`` (0..1).
-
-    Each side from ``max(MIN_OFFSET_PX, width_px)`` to ``p.pattern_offset_px`` out, a row every
-    ``_ROW_PX`` along the seam (as :func:`parallel_valley` reads it): the share of its samples
-    inside the image at :data:`CLIPPED_LEVEL` or brighter. 0 where a side has no sample inside.
-    """
-    pts, nrm = resample(points, _ROW_PX, extend=0.0)
-    near = max(MIN_OFFSET_PX, width_px)
-    shares = [0.0]
-    for sign in (-1.0, 1.0):
-        off = sign * np.arange(near, p.pattern_offset_px + 0.5, 1.0)
-        val, inside = bilinear(grey, lut, pts[:, 0:1] + nrm[:, 0:1] * off[None, :],
-                               pts[:, 1:2] + nrm[:, 1:2] * off[None, :])
-        if inside.any():
-            shares.append(float(np.mean(val[inside] >= lut[CLIPPED_LEVEL])))
-    return max(shares)
-
-
 def no_parallel_valley(sub: NDArray[np.uint8], lut: F64, best: Candidate, p: DetectParams,
                        x0: int, y0: int) -> None:
     """Raise :class:`AmbiguousSeam` if ``best`` leaves the image at both ends beside a line.
 
     The line: a second valley (:func:`parallel_valley`), wherever it lies: a nominal seam does
-    not set it aside, as it sets no rival aside (``seam_detect.outside_corridor``). Raise
-    :class:`SeamNotFound` where one side of the strip read for it is blind (:func:`clipped_side`
-    at least :data:`BLIND_SHARE`): the line there, or the joint, would not be seen.
+    not set it aside, as it sets no rival aside (``seam_detect.outside_corridor``).
     """
     if best.points is None or any(k != "image border" for k in best.end_kinds):
         return
     width = float(np.median(best.width)) if best.width is not None else 0.0
-    blind = clipped_side(sub, lut, best.points, width, p)
-    if blind >= BLIND_SHARE:
-        raise SeamNotFound(
-            f"the sheet beside the seam candidate is clipped white (overexposed) on "
-            f"{100 * blind:.0f} % of the {p.pattern_offset_px:.0f} px on one side of it, and "
-            "it leaves the image at both ends: a joint or a pen line beside it there would not "
-            "show, so it cannot be told from a line drawn beside the joint; lower the exposure "
-            "or move the light off the sheets", best_px=summary_px(best, x0, y0),
-            clipped_share=round(blind, 3))
     found = parallel_valley(sub, lut, best.points, width, p)
     if found is not None:
         off, share, own = found
