@@ -76,4 +76,3 @@ def test_a_pen_line_returned_as_the_seam_is_refused() -> None:
     img, truth, cam = _rendered_view(("wide", "medium", "tuning", 10284), 0)
     with pytest.raises(AmbiguousSeam, match="parallel"):
         detect_seam(img, camera=cam)
-
