@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from test_seam_wedge import LUT, S, _render, _sheets
 
-from controller.vision.seam_edge_ends import correct_edge_ends, gap_seen_to_edge
+from controller.vision.seam_edge_ends import carry_to_edge, correct_edge_ends, gap_seen_to_edge
 from controller.vision.seam_params import Candidate
 
 
@@ -38,6 +38,8 @@ def test_a_gap_running_out_of_the_image_is_seen_to_the_edge():
     # The end called the image border lies on it: the centreline carried on to the edge, seen.
     c = _cand(980.0)
     correct_edge_ends(img, LUT, [c])
+    assert len(c.points) == len(_points(980.0))  # (choosing is done on the lines as read)
+    carry_to_edge(img, LUT, c)
     assert c.points is not None and c.bridged is not None and c.width is not None
     assert np.allclose(c.points[-1], [999.5, 300.0], atol=0.01)
     assert len(c.bridged) == len(c.points) == len(c.width) and not c.bridged.any()
@@ -56,7 +58,7 @@ def test_a_gap_covered_up_to_the_edge_leaves_the_image_under_the_patch():
     # It is carried on to the edge under the patch, reported as occluded there (not before).
     c = _cand(944.0)
     n = len(c.points)
-    correct_edge_ends(img, LUT, [c])
+    carry_to_edge(img, LUT, c)
     assert c.points is not None and c.bridged is not None
     assert np.allclose(c.points[-1], [999.5, 300.0], atol=0.01)
     assert np.all(np.diff(c.points[:, 0]) > 0) and np.allclose(c.points[:, 1], 300.0)
@@ -67,7 +69,7 @@ def test_a_gap_covered_up_to_the_edge_leaves_the_image_under_the_patch():
     r = _cand(944.0)
     r.points, r.width = r.points[::-1].copy(), r.width[::-1].copy()
     r.end_kinds = ("image border", "sheet border")
-    correct_edge_ends(img, LUT, [r])
+    carry_to_edge(img, LUT, r)
     assert r.points is not None and np.allclose(r.points[0], [999.5, 300.0], atol=0.01)
     assert r.end_kinds == ("image border", "sheet border")
 
@@ -82,12 +84,30 @@ def test_sheets_ending_before_the_edge_make_no_image_border_end():
     assert kinds == ("sheet border", "sheet border")
     c = _cand(956.0)
     correct_edge_ends(img, LUT, [c])
+    carry_to_edge(img, LUT, c)
     assert c.points is not None and c.points[-1][0] == 956.0  # a sheet border stays where read
     # A rejected line is not this check's business.
     c = _cand(956.0)
     c.why_rejected = "dark line of 756 px fades out inside a sheet"
     correct_edge_ends(img, LUT, [c])
     assert c.end_kinds == ("sheet border", "image border")
+
+
+def test_a_seam_bending_toward_the_edge_is_not_carried_on_straight():
+    # The same covered end, the centreline bending over its last 120 px (a circle of radius
+    # 1000 px, level at the end: 1.5 px off the straight course by the edge 55.5 px on, more
+    # than MAX_BEND_OFF_PX): it stays. Radius 40000 px (0.04 px off): carried on.
+    m = _sheets(3.0)
+    m[:, 950 * S:] = 255
+    img = _render(m, 2)
+    for radius, carried in ((1000.0, False), (40000.0, True)):
+        c = _cand(944.0)
+        x = c.points[:, 0]
+        c.points = np.column_stack([x, 300.0 + (x - 944.0) ** 2 / (2.0 * radius)])
+        n = len(c.points)
+        carry_to_edge(img, LUT, c)
+        assert (len(c.points) > n) == carried
+        assert c.points[-1][0] == (999.5 if carried else 944.0)
 
 
 def test_an_end_a_few_px_from_the_edge_is_not_checked():

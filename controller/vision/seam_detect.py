@@ -77,7 +77,7 @@ from controller.vision.seam_decision import (
     spans_of,
 )
 from controller.vision.seam_detection import SeamDetection
-from controller.vision.seam_edge_ends import correct_edge_ends
+from controller.vision.seam_edge_ends import carry_to_edge, correct_edge_ends
 from controller.vision.seam_grain import no_grain_across, no_one_surface
 from controller.vision.seam_parallel import no_parallel_valley
 from controller.vision.seam_params import F64, OPEN_END, Candidate, DetectParams
@@ -230,13 +230,15 @@ def _one_line(sub: NDArray[np.uint8], lut: F64, best: Candidate, looked: list[Ca
               hint: F64 | None, p: DetectParams, x0: int, y0: int) -> None:
     """Refuse ``best`` where a parallel line, the sheets' grain or a T-stem makes it doubtful.
 
-    The second is not asked where the job's nominal seam line (``hint``) chose ``best``.
+    The second is not asked where the job's nominal seam line (``hint``) chose ``best``. A
+    ``best`` kept has its image-border ends carried on to the edge (``carry_to_edge``).
     """
     no_parallel_valley(sub, lut, best, p, x0, y0)
     no_grain_across(sub, lut, best, p, x0, y0)
     if hint is None and best.points is not None:
         no_stem_on(best.points, float(np.median(best.width)) if best.width is not None else 3.0,
                    looked, p, x0, y0)
+    carry_to_edge(sub, lut, best)
 
 
 def outside_corridor(cands: list[Candidate], hint: F64, p: DetectParams) -> None:

@@ -11,9 +11,10 @@ the end and the edge the two differ: beyond a sheet border lies the table, no ga
 than the sheets; over a tack weld the bead or the sheets go on. An end more than 8 px inside
 the image whose way to the edge shows the gap on under a third of its profiles and lies over a
 dark table is a sheet border (``joint_end``) at the step the end rules stopped at. Any other
-such end is where the seam leaves the image: its centreline is carried on straight to the edge
-(an end called the image border lies on it), the stretch where no gap is seen reported as
-occluded (README, *An image-border end on the border*).
+such end of the seam returned is where it leaves the image: its centreline is carried on
+straight to the edge, where it runs straight enough for that (an end called the image border
+lies on it), the stretch where no gap is seen reported as occluded (:func:`carry_to_edge`;
+README, *An image-border end on the border*).
 """
 
 from __future__ import annotations
@@ -113,8 +114,7 @@ def correct_edge_ends(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate])
     more than :data:`EDGE_CHECK_PX` inside the image, where the way to the edge shows the gap on
     fewer than :data:`SEEN_SHARE` of its profiles and lies over a dark table
     (:func:`gap_seen_to_edge`), is where the sheets end: its kind becomes ``"sheet border"``
-    (``joint_end``), the point stays (the step the end rules stopped at). Any other such end is
-    carried on to the edge (:func:`_carry_to_edge`).
+    (``joint_end``), the point stays (the step the end rules stopped at).
     """
     for c in cands:
         pts = c.points if c.points is not None else c.polyline
@@ -125,27 +125,63 @@ def correct_edge_ends(grey: NDArray[np.uint8], lut: F64, cands: list[Candidate])
         for end, kind in enumerate(kinds):
             if kind != "image border":
                 continue
-            pts = c.points if c.points is not None else c.polyline
-            way = _way_to_edge(grey, lut, pts if end == 1 else pts[::-1], w)
-            if way.dist <= EDGE_CHECK_PX:
-                continue
-            seen = way.seen[way.inside]
-            if len(seen) and float(np.mean(seen)) < SEEN_SHARE and way.over_table:
+            dist, share, over_table = gap_seen_to_edge(grey, lut,
+                                                       pts if end == 1 else pts[::-1], w)
+            if (dist > EDGE_CHECK_PX and share is not None and share < SEEN_SHARE
+                    and over_table):
                 kinds[end] = "sheet border"
-            elif c.points is not None:
-                _carry_to_edge(c, end, way)
         c.end_kinds = (kinds[0], kinds[1])
 
 
-def _carry_to_edge(c: Candidate, end: int, way: _Way) -> None:
-    """Carry ``c``'s centreline on from its ``end`` (0 first, 1 last) straight to the image edge.
+#: A seam is carried on straight to the edge only where, bent as over its last
+#: :data:`BEND_PX`, it would leave the straight course by at most this much there (px).
+MAX_BEND_OFF_PX = 1.0
+BEND_PX = 120.0
 
-    A seam that leaves the image ends on the image border; where the end rules stopped short of
-    it (a tack weld or spatter over the joint near the edge, beyond which nothing can be read)
-    the seam runs on under it. Points every :data:`_STEP_PX` x 2 along ``way.tang``, the last on
-    the edge; each is ``bridged`` (reported as an occluded span) unless the profile nearest it
-    shows the gap. The band's centreline of a split shadow (``band_points``) is carried on
-    alongside, the width held at the last point's.
+
+def carry_to_edge(grey: NDArray[np.uint8], lut: F64, c: Candidate) -> None:
+    """Carry the returned seam ``c`` on to the image edge from its image-border ends.
+
+    An ``"image border"`` end more than :data:`EDGE_CHECK_PX` inside the image (the end rules
+    stopped at a tack weld or spatter near the edge, beyond which nothing can be read) is
+    carried on straight along the course of its last 30 px, points every 4 px and the last on
+    the edge; each is ``bridged`` (an occluded span) unless the profile nearest it shows the
+    gap (:func:`gap_seen_to_edge`). Not where the seam bends: its curvature over the last
+    :data:`BEND_PX` would take it more than :data:`MAX_BEND_OFF_PX` off the straight course
+    by the edge (the straight stretch would be off the joint; the end stays where it was read).
+    Run on the seam chosen only: the carried stretch is not evidence for choosing (a line
+    carried across another one would change what the rules read of the two).
+    """
+    if c.points is None or len(c.points) < 3:
+        return
+    w = float(np.median(c.width)) if c.width is not None and len(c.width) else 3.0
+    for end, kind in enumerate(c.end_kinds):
+        if kind != "image border":
+            continue
+        toward = c.points if end == 1 else c.points[::-1]
+        way = _way_to_edge(grey, lut, toward, w)
+        if way.dist > EDGE_CHECK_PX and 0.5 * _curvature(toward) * way.dist ** 2 <= \
+                MAX_BEND_OFF_PX:
+            _carry(c, end, way)
+
+
+def _curvature(pts: F64) -> float:
+    """The curvature (1/px) of ``pts``' last :data:`BEND_PX` of arc: a quadratic in arc length."""
+    s = arc_length(pts)
+    sel = s >= s[-1] - BEND_PX
+    if sel.sum() < 5:
+        return 0.0
+    t = s[sel] - s[-1]
+    cx, cy = np.polyfit(t, pts[sel, 0], 2), np.polyfit(t, pts[sel, 1], 2)
+    dx, dy, ddx, ddy = cx[1], cy[1], 2 * cx[0], 2 * cy[0]
+    return float(abs(dx * ddy - dy * ddx) / max(np.hypot(dx, dy) ** 3, 1e-12))
+
+
+def _carry(c: Candidate, end: int, way: _Way) -> None:
+    """:func:`carry_to_edge`'s points added at ``c``'s ``end`` (0 first, 1 last) along ``way``.
+
+    The width is held at the end's; a split shadow's band centreline (``band_points``) is
+    carried on alongside.
     """
     assert c.points is not None
     n = len(c.points)
