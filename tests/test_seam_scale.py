@@ -35,7 +35,7 @@ TUNED = {"gamma": 2.2, "coarse_factor": 0, "valley_r_coarse": 3, "valley_r_px": 
          "piece_length_px": 100.0, "piece_join_px": 48.0, "ambiguity_ratio": 0.6,
          "min_confidence": 0.5, "max_candidates": 4, "robust": True, "straight_px": 2.5,
          "pattern_offset_px": 200.0, "max_band_px": 0.0, "min_gap_px": 0.0, "smaller": True,
-         "grain": True, "hint_tol_px": 60.0}
+         "grain": True, "carry": True, "hint_tol_px": 60.0}
 SCALED = ("max_gap_px", "half_width_px", "valley_r_px", "min_length_px", "piece_length_px")
 
 

@@ -238,7 +238,7 @@ def _one_line(sub: NDArray[np.uint8], lut: F64, best: Candidate, looked: list[Ca
     if hint is None and best.points is not None:
         no_stem_on(best.points, float(np.median(best.width)) if best.width is not None else 3.0,
                    looked, p, x0, y0)
-    carry_to_edge(sub, lut, best)
+    carry_to_edge(sub, lut, best, p)
 
 
 def outside_corridor(cands: list[Candidate], hint: F64, p: DetectParams) -> None:

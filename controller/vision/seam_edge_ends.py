@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from controller.vision.seam_decision import arc_length
 from controller.vision.seam_ends import border_crossing, darker_than_sheets
-from controller.vision.seam_params import F64, Candidate
+from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import bilinear
 from controller.vision.seam_wedge import sheet_levels
 
@@ -139,7 +139,8 @@ MAX_BEND_OFF_PX = 1.0
 BEND_PX = 120.0
 
 
-def carry_to_edge(grey: NDArray[np.uint8], lut: F64, c: Candidate) -> None:
+def carry_to_edge(grey: NDArray[np.uint8], lut: F64, c: Candidate,
+                  p: DetectParams | None = None) -> None:
     """Carry the returned seam ``c`` on to the image edge from its image-border ends.
 
     An ``"image border"`` end more than :data:`EDGE_CHECK_PX` inside the image (the end rules
@@ -150,9 +151,10 @@ def carry_to_edge(grey: NDArray[np.uint8], lut: F64, c: Candidate) -> None:
     :data:`BEND_PX` would take it more than :data:`MAX_BEND_OFF_PX` off the straight course
     by the edge (the straight stretch would be off the joint; the end stays where it was read).
     Run on the seam chosen only: the carried stretch is not evidence for choosing (a line
-    carried across another one would change what the rules read of the two).
+    carried across another one would change what the rules read of the two). Not where
+    ``p.carry`` is off (the search on the image shrunk).
     """
-    if c.points is None or len(c.points) < 3:
+    if (p is not None and not p.carry) or c.points is None or len(c.points) < 3:
         return
     w = float(np.median(c.width)) if c.width is not None and len(c.width) else 3.0
     for end, kind in enumerate(c.end_kinds):

@@ -58,6 +58,10 @@ class DetectParams:
     shadow beside the gap) or over the whole line (one surface on both sides: a pen line, a
     slot; :mod:`controller.vision.seam_grain`); off on the image shrunk, whose pixels average
     the grain away.
+    ``carry``: carry the returned seam's image-border ends on to the image edge
+    (:func:`controller.vision.seam_edge_ends.carry_to_edge`); off on the image shrunk, whose
+    seam is compared as read with the lines the full-size search saw
+    (:func:`controller.vision.seam_smaller.one_of`).
     ``robust``: when no candidate of the profile model passes, look for the seam as a whole-image
     valley path (:mod:`controller.vision.seam_robust`: ragged, wide, covered or dark gaps).
     ``straight_px``: a line whose points lie within this RMS distance of their principal axis is
@@ -100,6 +104,7 @@ class DetectParams:
     robust: bool = True
     smaller: bool = True
     grain: bool = True
+    carry: bool = True
     straight_px: float = 2.5
     pattern_offset_px: float = 200.0
     max_band_px: float = 0.0

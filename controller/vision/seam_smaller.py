@@ -200,7 +200,8 @@ def _found_at(grey: NDArray[np.uint8], f: float, hint: F64 | None, p: DetectPara
     # A band limit the job stated (px of the image) is f times fewer px of the shrunk one; so is
     # how far the seam may lie from the nominal one.
     ps = replace(p, max_band_px=p.max_band_px / f, min_gap_px=p.min_gap_px / f,
-                 hint_tol_px=p.hint_tol_px / f, smaller=False, grain=False)
+                 hint_tol_px=p.hint_tol_px / f, smaller=False, grain=False,
+                 carry=False)
     try:
         det = look(small, None if hint is None else down(hint), ps, small_straighten)
     except SeamguideError:
