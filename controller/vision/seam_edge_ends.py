@@ -174,8 +174,8 @@ def _curvature(pts: F64) -> float:
     if sel.sum() < 5:
         return 0.0
     t = s[sel] - s[-1]
-    cx, cy = np.polyfit(t, pts[sel, 0], 2), np.polyfit(t, pts[sel, 1], 2)
-    dx, dy, ddx, ddy = cx[1], cy[1], 2 * cx[0], 2 * cy[0]
+    coef = np.polyfit(t, pts[sel], 2)  # both coordinates at once: rows t^2, t, 1
+    (dx, dy), (ddx, ddy) = coef[1], 2 * coef[0]
     return float(abs(dx * ddy - dy * ddx) / max(np.hypot(dx, dy) ** 3, 1e-12))
 
 
