@@ -6,7 +6,8 @@ reads cross such an edge at a shallow angle: no sharp step (the end is called op
 fading out inside a sheet is), a step well past the end (a large corner), or a wedge the resume
 check takes for more of the same gap. Read across the seam instead, the wedge shows plainly: a
 region around the centreline as dark as the table, present on every profile from the gap on,
-whose two edges recede steadily and ever faster. What else can lie beyond where the gap stops
+whose two edges recede steadily and ever faster (a corner smaller than the profiles reach is
+followed by its plate's end, where that side's edge jumps out to the profile's end). What else can lie beyond where the gap stops
 fitting does not do that: a pen line or a scratch ending inside a sheet has the sheet beyond it,
 a dark line lying on from the gap (a pen line on the joint) keeps its width, a covered patch or a
 table hole is left again, a plate's straight outer edge or a gap across the seam's end darkens a
@@ -168,7 +169,8 @@ def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float
     table inside it, from the point on, one level (its 10-90 % spread within 35 % of the
     sheets' contrast to it: holes of a perforated table, a shadow across it are not); each edge
     recedes steadily (never back by more than 1 px nor on by more than a quarter of ``reach``
-    from one profile to the next) and by at least ``max(3, w_med / 2)`` px in all; and the
+    from one profile to the next, but once where its plate ends past a small corner:
+    :func:`_plate_ends`) and by at least ``max(3, w_med / 2)`` px in all; and the
     region still widens over the second half (by 4 px and half of what it widened over the
     first): corners recede ever faster, a dark line lying on past the gap keeps its width.
     """
@@ -187,12 +189,31 @@ def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float
     left, right = -lo[i0:], hi[i0:]
     for e in (left, right):
         step = np.diff(e)
+        jump = np.flatnonzero(step > 0.25 * reach)
+        if len(jump) == 1 and _plate_ends(e, int(jump[0]), ks[i0:], reach):
+            step = np.delete(step, jump)
         if np.any(step < -1.0) or np.any(step > 0.25 * reach) or e[-1] - e[0] < max(3.0,
                                                                                    w_med / 2):
             return False
     width = left + right
     mid = len(width) // 2
     return bool(width[-1] - width[mid] >= max(4.0, 0.5 * (width[mid] - width[0])))
+
+
+def _plate_ends(edge: F64, j: int, ks: F64, reach: float) -> bool:
+    """Whether one side's edge (px out from the centreline, per profile at ``ks``) jumps from
+    profile ``j`` to ``j + 1`` because its plate ends past its corner.
+
+    A corner smaller than the profiles' ``reach`` is followed by the plate's end: the region
+    of table then fills that side of every profile further on (the edge stays at ``reach``).
+    Counted as the corner's end only past the point read from (``ks[j + 1] >= 0``) and after an
+    edge that receded without ever going back by more than 1 px in all: a ragged stretch of gap
+    that bulges and narrows again before a straight sheet border (pen easy tuning 50006 view 0,
+    32 px short of the border) is no corner.
+    """
+    before = edge[:j + 1]
+    return bool(ks[j + 1] >= 0.0 and np.all(edge[j + 1:] >= reach - 0.5)
+                and np.all(before - np.maximum.accumulate(before) >= -1.0))
 
 
 def _dark_area(val: F64, os_: F64, lo: F64, hi: F64, w_med: float,
