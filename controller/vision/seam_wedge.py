@@ -170,7 +170,7 @@ def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float
     sheets' contrast to it: holes of a perforated table, a shadow across it are not); each edge
     recedes steadily (never back by more than 1 px nor on by more than a quarter of ``reach``
     from one profile to the next, but once where its plate ends past a small corner:
-    :func:`_plate_ends`) and by at least ``max(3, w_med / 2)`` px in all; and the
+    :func:`_plate_ends`; then never back by more than 1 px in all) and by at least ``max(3, w_med / 2)`` px in all; and the
     region still widens over the second half (by 4 px and half of what it widened over the
     first): corners recede ever faster, a dark line lying on past the gap keeps its width.
     """
@@ -187,14 +187,20 @@ def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float
             > 0.35 * (min(sheets) - float(np.median(inner)))):
         return False
     left, right = -lo[i0:], hi[i0:]
+    ended = False
     for e in (left, right):
         step = np.diff(e)
         jump = np.flatnonzero(step > 0.25 * reach)
         if len(jump) == 1 and _plate_ends(e, int(jump[0]), ks[i0:], reach):
-            step = np.delete(step, jump)
+            step, ended = np.delete(step, jump), True
         if np.any(step < -1.0) or np.any(step > 0.25 * reach) or e[-1] - e[0] < max(3.0,
                                                                                    w_med / 2):
             return False
+    if ended and any(np.any(e - np.maximum.accumulate(e) < -1.0) for e in (left, right)):
+        # Corners' edges never go back: a ragged stretch of gap that bulges and narrows again
+        # before a straight sheet border does (pen easy tuning 50006 view 0: read 32 px short
+        # of the border as a wedge's end).
+        return False
     width = left + right
     mid = len(width) // 2
     return bool(width[-1] - width[mid] >= max(4.0, 0.5 * (width[mid] - width[0])))
@@ -206,14 +212,9 @@ def _plate_ends(edge: F64, j: int, ks: F64, reach: float) -> bool:
 
     A corner smaller than the profiles' ``reach`` is followed by the plate's end: the region
     of table then fills that side of every profile further on (the edge stays at ``reach``).
-    Counted as the corner's end only past the point read from (``ks[j + 1] >= 0``) and after an
-    edge that receded without ever going back by more than 1 px in all: a ragged stretch of gap
-    that bulges and narrows again before a straight sheet border (pen easy tuning 50006 view 0,
-    32 px short of the border) is no corner.
+    Counted as the corner's end only past the point read from (``ks[j + 1] >= 0``).
     """
-    before = edge[:j + 1]
-    return bool(ks[j + 1] >= 0.0 and np.all(edge[j + 1:] >= reach - 0.5)
-                and np.all(before - np.maximum.accumulate(before) >= -1.0))
+    return bool(ks[j + 1] >= 0.0 and np.all(edge[j + 1:] >= reach - 0.5))
 
 
 def _dark_area(val: F64, os_: F64, lo: F64, hi: F64, w_med: float,
