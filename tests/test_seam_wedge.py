@@ -95,11 +95,14 @@ def test_a_corner_smaller_than_the_profiles_is_read_up_to_its_plate_end(gap, rad
     # plate ends: read as a wedge all the same. Was refused as an edge jumping on by more than
     # a quarter of the profiles' reach (wide easy tuning 10169, both views: plates with
     # corners of a few mm, their joint's ends read as fading out inside a sheet).
+    # Only where the lines beside the gap saw no border (``plate_end``): where they did, their
+    # border stands (read with it, held-out ends the lines had right moved off them).
     img, x_end = small_corners(gap, radius, seed=int(gap * 10) + 3)
     for start in (x_end - 12.0, x_end - 4.0, x_end):
-        k = wedge_end(img, LUT, np.array([start, 300.0]), TANG, gap)
+        k = wedge_end(img, LUT, np.array([start, 300.0]), TANG, gap, plate_end=True)
         assert k is not None, (gap, radius, start)
         assert abs(start + k - x_end) <= 1.5, (start, k, x_end)
+        assert wedge_end(img, LUT, np.array([start, 300.0]), TANG, gap) is None
 
 
 @pytest.mark.parametrize("upper,lower,border", [(4.0, 2.5, 628.0), (5.0, 3.5, 640.0)])
@@ -119,7 +122,7 @@ def test_a_gap_that_bulges_and_narrows_before_a_straight_border_is_no_corner(upp
     cv2.fillPoly(m, [poly.astype(np.int32)], 0)
     yy, xx = np.mgrid[0:m.shape[0], 0:m.shape[1]]
     m[xx > (border + 0.5 * (yy / S - 300)) * S] = 0
-    assert wedge_end(_render(m, 9), LUT, END, TANG, 3.0) is None
+    assert wedge_end(_render(m, 9), LUT, END, TANG, 3.0, plate_end=True) is None
 
 
 def test_a_line_that_fades_out_inside_the_sheet_opens_into_nothing():

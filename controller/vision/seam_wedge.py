@@ -48,14 +48,15 @@ _TABLE_SHARE = 0.7
 
 
 def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
-              w_med: float) -> float | None:
+              w_med: float, plate_end: bool = False) -> float | None:
     """Distance (px, along ``tang``) from ``end_pt`` to where the gap has opened to twice its width.
 
     ``end_pt``: where the gap (median fitted width ``w_med`` px) was last followed; ``tang``:
     unit, pointing out of the seam. None for a band of 8 px or more (``_MAX_BAND``). Profiles
     across the seam every 2 px from 40 px before the point to ``reach = max(64, 8 w_med)`` px
     past it, ``reach`` px to either side. Returns None unless they show a wedge of table
-    between two rounded corners (:func:`_is_wedge`) on a table darker than the sheets
+    between two rounded corners (:func:`_is_wedge`; with ``plate_end``, also corners smaller
+    than the profiles, their plates ending within them) on a table darker than the sheets
     (:data:`_TABLE_SHARE`). The gap's width is read where it was
     still whole (12-40 px before the point: the lower quartile, for a large corner that has
     begun to open it) as its dark area (0 on the sheets, 1 on the table, summed: blur spreads
@@ -89,7 +90,7 @@ def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
     if table >= _TABLE_SHARE * min(sheets):
         return None
     lo, hi = _region_edges(val, os_, 0.5 * (table + min(sheets)), w_med)
-    if not _is_wedge(val, ks, os_, lo, hi, sheets, w_med, reach):
+    if not _is_wedge(val, ks, os_, lo, hi, sheets, w_med, reach, plate_end):
         return None
     before = ks <= -12.0
     area = _dark_area(val, os_, lo, hi, w_med, sheets, table)
@@ -162,15 +163,16 @@ def _region_edges(val: F64, os_: F64, thr: float, w_med: float) -> tuple[F64, F6
 
 
 def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float, float],
-              w_med: float, reach: float) -> bool:
+              w_med: float, reach: float, plate_end: bool = False) -> bool:
     """Whether the dark region (edges ``lo``, ``hi`` per profile at ``ks``) is a wedge of table.
 
     The region is present on every profile from at most ``_START_PX`` past the point on; the
     table inside it, from the point on, one level (its 10-90 % spread within 35 % of the
     sheets' contrast to it: holes of a perforated table, a shadow across it are not); each edge
     recedes steadily (never back by more than 1 px nor on by more than a quarter of ``reach``
-    from one profile to the next, but once where its plate ends past a small corner:
-    :func:`_plate_ends`; then never back by more than 1 px in all) and by at least ``max(3, w_med / 2)`` px in all; and the
+    from one profile to the next, but once where its plate ends past a small corner, if
+    ``plate_end``: :func:`_plate_ends`; then never back by more than 1 px in all) and by at
+    least ``max(3, w_med / 2)`` px in all; and the
     region still widens over the second half (by 4 px and half of what it widened over the
     first): corners recede ever faster, a dark line lying on past the gap keeps its width.
     """
@@ -191,7 +193,7 @@ def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float
     for e in (left, right):
         step = np.diff(e)
         jump = np.flatnonzero(step > 0.25 * reach)
-        if len(jump) == 1 and _plate_ends(e, int(jump[0]), ks[i0:], reach):
+        if plate_end and len(jump) == 1 and _plate_ends(e, int(jump[0]), ks[i0:], reach):
             step, ended = np.delete(step, jump), True
         if np.any(step < -1.0) or np.any(step > 0.25 * reach) or e[-1] - e[0] < max(3.0,
                                                                                    w_med / 2):
