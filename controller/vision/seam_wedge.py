@@ -5,16 +5,16 @@ opens into a wedge of table. The lines beside the gap that :mod:`controller.visi
 reads cross such an edge at a shallow angle: no sharp step (the end is called open, as a line
 fading out inside a sheet is), a step well past the end (a large corner), or a wedge the resume
 check takes for more of the same gap. Read across the seam instead, the wedge shows plainly: a
-region around the centreline as dark as the table, present on every profile from the gap on,
-whose two edges recede steadily and ever faster (a corner smaller than the profiles reach is
-followed by its plate's end, where that side's edge jumps out to the profile's end). What else can lie beyond where the gap stops
-fitting does not do that: a pen line or a scratch ending inside a sheet has the sheet beyond it,
-a dark line lying on from the gap (a pen line on the joint) keeps its width, a covered patch or a
-table hole is left again, a plate's straight outer edge or a gap across the seam's end darkens a
-whole profile at once, one plate ending recedes on one side only, a perforated or shadowed table
-is no single level to read edges against. The end is where the gap has opened to twice its width
-(the renderer's rule for rounded corners, ``drivers/sim/sim_scene._corner_trim``). Pixels are
-(u, v) in the distorted image; levels are linear radiance.
+region around the centreline as dark as the table, present on every profile from the gap on, whose
+two edges recede steadily and ever faster (a corner smaller than the profiles' reach is followed by
+its plate's end, where that side's edge jumps out to the profile's end). What else can lie beyond
+where the gap stops fitting does not do that: a pen line or a scratch ending inside a sheet has the
+sheet beyond it, a dark line lying on from the gap (a pen line on the joint) keeps its width, a
+covered patch or a table hole is left again, a plate's straight outer edge or a gap across the
+seam's end darkens a whole profile at once, one plate ending recedes on one side only, a perforated
+or shadowed table is no single level to read edges against. The end is where the gap has opened to
+twice its width (the renderer's rule for rounded corners, ``drivers/sim/sim_scene._corner_trim``).
+Pixels are (u, v) in the distorted image; levels are linear radiance.
 """
 
 from __future__ import annotations
@@ -209,12 +209,12 @@ def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float
 
 
 def _plate_ends(edge: F64, j: int, ks: F64, reach: float) -> bool:
-    """Whether one side's edge (px out from the centreline, per profile at ``ks``) jumps from
-    profile ``j`` to ``j + 1`` because its plate ends past its corner.
+    """Whether an edge's jump from profile ``j`` to ``j + 1`` is its plate ending past its corner.
 
-    A corner smaller than the profiles' ``reach`` is followed by the plate's end: the region
-    of table then fills that side of every profile further on (the edge stays at ``reach``).
-    Counted as the corner's end only past the point read from (``ks[j + 1] >= 0``).
+    ``edge``: one side's edge, px out from the centreline, per profile at ``ks``. A corner smaller
+    than the profiles' ``reach`` is followed by the plate's end: the region of table then fills
+    that side of every profile further on (the edge stays at ``reach``). Counted as the corner's
+    end only past the point read from (``ks[j + 1] >= 0``).
     """
     return bool(ks[j + 1] >= 0.0 and np.all(edge[j + 1:] >= reach - 0.5))
 
