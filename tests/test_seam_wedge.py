@@ -72,59 +72,6 @@ def test_the_end_is_where_the_wedge_has_opened_to_twice_the_gap(gap, radius):
         assert abs(start + k - x_end) <= 1.5, (start, k, x_end)
 
 
-def small_corners(gap: float, radius: float, seed: int) -> tuple[np.ndarray, float]:
-    """As :func:`corners`, but each plate ends square ``radius`` px past where its corner began
-    (x = 700 + ``radius``): beyond, the table across the whole profile on both sides."""
-    m = _sheets(gap)
-    g, R, xc = gap * S, radius * S, 700 * S
-    for sgn in (-1, 1):
-        y_edge = 300 * S + sgn * g / 2
-        cy = y_edge + sgn * R
-        ys = sorted((int(y_edge), int(cy)))
-        m[ys[0]:ys[1], xc:] = 0
-        cv2.circle(m, (xc, int(cy)), int(R), 255, -1)
-        rows = slice(0, int(y_edge)) if sgn < 0 else slice(int(y_edge), m.shape[0])
-        m[rows, xc + int(R):] = 0  # the plate's end
-    x_end = 700 + np.sqrt(radius ** 2 - (radius - gap / 2) ** 2)
-    return _render(m, seed), float(x_end) - 0.5 + 0.5 / S
-
-
-@pytest.mark.parametrize("gap,radius", [(3.0, 20.0), (5.0, 30.0), (2.0, 40.0)])
-def test_a_corner_smaller_than_the_profiles_is_read_up_to_its_plate_end(gap, radius):
-    # Each side's edge recedes along its corner, then jumps out to the profile's end where the
-    # plate ends: read as a wedge all the same. Was refused as an edge jumping on by more than
-    # a quarter of the profiles' reach (wide easy tuning 10169, both views: plates with
-    # corners of a few mm, their joint's ends read as fading out inside a sheet).
-    # Only where the lines beside the gap saw no border (``plate_end``): where they did, their
-    # border stands (read with it, held-out ends the lines had right moved off them).
-    img, x_end = small_corners(gap, radius, seed=int(gap * 10) + 3)
-    for start in (x_end - 12.0, x_end - 4.0, x_end):
-        k = wedge_end(img, LUT, np.array([start, 300.0]), TANG, gap, plate_end=True)
-        assert k is not None, (gap, radius, start)
-        assert abs(start + k - x_end) <= 1.5, (start, k, x_end)
-        assert wedge_end(img, LUT, np.array([start, 300.0]), TANG, gap) is None
-
-
-@pytest.mark.parametrize("upper,lower,border", [(4.0, 2.5, 628.0), (5.0, 3.5, 640.0)])
-def test_a_gap_that_bulges_and_narrows_before_a_straight_border_is_no_corner(upper, lower, border):
-    # A ragged stretch of gap: its upper edge widens out to ``upper`` px from the centreline and
-    # stays there, its lower edge widens to ``lower`` px and comes back to 0.5 px 4 px before
-    # both plates end on one oblique straight border (x = ``border`` + 0.5 (y - 300)). Past the
-    # border the upper side's edge jumps out as a plate's end past a small corner does, but the
-    # lower edge went back: read as a wedge, its end was put 16-20 px before the point read
-    # from, 50 px short of the border (pen easy tuning 50006 view 0, 32 px short). The border is
-    # read by the lines beside the gap (seam_border), not as a corner.
-    m = _sheets(3.0)
-    xs = np.arange(500.0, 700.0, 0.25)
-    up = np.interp(xs, [560.0, 600.0, 690.0], [1.5, upper, upper])
-    low = np.interp(xs, [560.0, 605.0, border - 4.0, 690.0], [1.5, lower, 0.5, 0.5])
-    poly = np.concatenate([np.c_[xs, 300.0 - up], np.c_[xs[::-1], 300.0 + low[::-1]]]) * S
-    cv2.fillPoly(m, [poly.astype(np.int32)], 0)
-    yy, xx = np.mgrid[0:m.shape[0], 0:m.shape[1]]
-    m[xx > (border + 0.5 * (yy / S - 300)) * S] = 0
-    assert wedge_end(_render(m, 9), LUT, END, TANG, 3.0, plate_end=True) is None
-
-
 def test_a_line_that_fades_out_inside_the_sheet_opens_into_nothing():
     m = _sheets(3.0)
     m[:, 600 * S:] = 255  # the sheet goes on beyond the line's end

@@ -268,8 +268,7 @@ def _end_at(grey: NDArray[np.uint8], lut: F64, e_pt: F64, tang: F64, w_med: floa
         # the lines beside the gap too gently to step (the end read open or unsure) or step
         # late (read past the end), and the wedge of table beyond looks to the resume check
         # like a wider stretch of the same gap.
-        # (A small corner's plate end only where the lines saw no border: README *Twenty-third*.)
-        kw = wedge_end(grey, lut, e_pt, tang, w_med, plate_end=kind == "open")
+        kw = wedge_end(grey, lut, e_pt, tang, w_med)
         if kw is not None:
             return kw, "sheet border", None, outer_only
         beyond = gap_resumes(grey, lut, e_pt + k * tang, ahead, w_med,

@@ -5,16 +5,15 @@ opens into a wedge of table. The lines beside the gap that :mod:`controller.visi
 reads cross such an edge at a shallow angle: no sharp step (the end is called open, as a line
 fading out inside a sheet is), a step well past the end (a large corner), or a wedge the resume
 check takes for more of the same gap. Read across the seam instead, the wedge shows plainly: a
-region around the centreline as dark as the table, present on every profile from the gap on, whose
-two edges recede steadily and ever faster (a corner smaller than the profiles' reach is followed by
-its plate's end, where that side's edge jumps out to the profile's end). What else can lie beyond
-where the gap stops fitting does not do that: a pen line or a scratch ending inside a sheet has the
-sheet beyond it, a dark line lying on from the gap (a pen line on the joint) keeps its width, a
-covered patch or a table hole is left again, a plate's straight outer edge or a gap across the
-seam's end darkens a whole profile at once, one plate ending recedes on one side only, a perforated
-or shadowed table is no single level to read edges against. The end is where the gap has opened to
-twice its width (the renderer's rule for rounded corners, ``drivers/sim/sim_scene._corner_trim``).
-Pixels are (u, v) in the distorted image; levels are linear radiance.
+region around the centreline as dark as the table, present on every profile from the gap on,
+whose two edges recede steadily and ever faster. What else can lie beyond where the gap stops
+fitting does not do that: a pen line or a scratch ending inside a sheet has the sheet beyond it,
+a dark line lying on from the gap (a pen line on the joint) keeps its width, a covered patch or a
+table hole is left again, a plate's straight outer edge or a gap across the seam's end darkens a
+whole profile at once, one plate ending recedes on one side only, a perforated or shadowed table
+is no single level to read edges against. The end is where the gap has opened to twice its width
+(the renderer's rule for rounded corners, ``drivers/sim/sim_scene._corner_trim``). Pixels are
+(u, v) in the distorted image; levels are linear radiance.
 """
 
 from __future__ import annotations
@@ -48,15 +47,14 @@ _TABLE_SHARE = 0.7
 
 
 def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
-              w_med: float, plate_end: bool = False) -> float | None:
+              w_med: float) -> float | None:
     """Distance (px, along ``tang``) from ``end_pt`` to where the gap has opened to twice its width.
 
     ``end_pt``: where the gap (median fitted width ``w_med`` px) was last followed; ``tang``:
     unit, pointing out of the seam. None for a band of 8 px or more (``_MAX_BAND``). Profiles
     across the seam every 2 px from 40 px before the point to ``reach = max(64, 8 w_med)`` px
     past it, ``reach`` px to either side. Returns None unless they show a wedge of table
-    between two rounded corners (:func:`_is_wedge`; with ``plate_end``, also corners smaller
-    than the profiles, their plates ending within them) on a table darker than the sheets
+    between two rounded corners (:func:`_is_wedge`) on a table darker than the sheets
     (:data:`_TABLE_SHARE`). The gap's width is read where it was
     still whole (12-40 px before the point: the lower quartile, for a large corner that has
     begun to open it) as its dark area (0 on the sheets, 1 on the table, summed: blur spreads
@@ -90,7 +88,7 @@ def wedge_end(grey: NDArray[np.uint8], lut: F64, end_pt: F64, tang: F64,
     if table >= _TABLE_SHARE * min(sheets):
         return None
     lo, hi = _region_edges(val, os_, 0.5 * (table + min(sheets)), w_med)
-    if not _is_wedge(val, ks, os_, lo, hi, sheets, w_med, reach, plate_end):
+    if not _is_wedge(val, ks, os_, lo, hi, sheets, w_med, reach):
         return None
     before = ks <= -12.0
     area = _dark_area(val, os_, lo, hi, w_med, sheets, table)
@@ -163,16 +161,14 @@ def _region_edges(val: F64, os_: F64, thr: float, w_med: float) -> tuple[F64, F6
 
 
 def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float, float],
-              w_med: float, reach: float, plate_end: bool = False) -> bool:
+              w_med: float, reach: float) -> bool:
     """Whether the dark region (edges ``lo``, ``hi`` per profile at ``ks``) is a wedge of table.
 
     The region is present on every profile from at most ``_START_PX`` past the point on; the
     table inside it, from the point on, one level (its 10-90 % spread within 35 % of the
     sheets' contrast to it: holes of a perforated table, a shadow across it are not); each edge
     recedes steadily (never back by more than 1 px nor on by more than a quarter of ``reach``
-    from one profile to the next, but once where its plate ends past a small corner, if
-    ``plate_end``: :func:`_plate_ends`; then never back by more than 1 px in all) and by at
-    least ``max(3, w_med / 2)`` px in all; and the
+    from one profile to the next) and by at least ``max(3, w_med / 2)`` px in all; and the
     region still widens over the second half (by 4 px and half of what it widened over the
     first): corners recede ever faster, a dark line lying on past the gap keeps its width.
     """
@@ -189,34 +185,14 @@ def _is_wedge(val: F64, ks: F64, os_: F64, lo: F64, hi: F64, sheets: tuple[float
             > 0.35 * (min(sheets) - float(np.median(inner)))):
         return False
     left, right = -lo[i0:], hi[i0:]
-    ended = False
     for e in (left, right):
         step = np.diff(e)
-        jump = np.flatnonzero(step > 0.25 * reach)
-        if plate_end and len(jump) == 1 and _plate_ends(e, int(jump[0]), ks[i0:], reach):
-            step, ended = np.delete(step, jump), True
         if np.any(step < -1.0) or np.any(step > 0.25 * reach) or e[-1] - e[0] < max(3.0,
                                                                                    w_med / 2):
             return False
-    if ended and any(np.any(e - np.maximum.accumulate(e) < -1.0) for e in (left, right)):
-        # Corners' edges never go back: a ragged stretch of gap that bulges and narrows again
-        # before a straight sheet border does (pen easy tuning 50006 view 0: read 32 px short
-        # of the border as a wedge's end).
-        return False
     width = left + right
     mid = len(width) // 2
     return bool(width[-1] - width[mid] >= max(4.0, 0.5 * (width[mid] - width[0])))
-
-
-def _plate_ends(edge: F64, j: int, ks: F64, reach: float) -> bool:
-    """Whether an edge's jump from profile ``j`` to ``j + 1`` is its plate ending past its corner.
-
-    ``edge``: one side's edge, px out from the centreline, per profile at ``ks``. A corner smaller
-    than the profiles' ``reach`` is followed by the plate's end: the region of table then fills
-    that side of every profile further on (the edge stays at ``reach``). Counted as the corner's
-    end only past the point read from (``ks[j + 1] >= 0``).
-    """
-    return bool(ks[j + 1] >= 0.0 and np.all(edge[j + 1:] >= reach - 0.5))
 
 
 def _dark_area(val: F64, os_: F64, lo: F64, hi: F64, w_med: float,
