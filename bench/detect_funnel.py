@@ -5,23 +5,22 @@ Usage (from the repository root, on the render cache of ``bench.bench_detect``):
     .venv/bin/python -m bench.detect_funnel [--part tuning|heldout] [--pairs 50] [--pen-pairs 25]
         [--jobs 2] [--out bench/out/funnel.json]
 
-A refusal's message names the candidates' reasons, but not which of them was the joint. Here
-each view of the wide and pen sets is detected again with ``detect_seam(trace=...)``, which
-hands over every list of candidates a choice was made over (the first way's, with the finer
-grid's, the valley paths'). A candidate *is the joint* when its points lie within
-:data:`NEAR_PX` (median) of the true centreline and it covers :data:`COVER_SHARE` of it. Each
-refused view is put in the first stage where the joint was a candidate, with that candidate's
-verdict (its reason with the numbers taken out; or, where it passed every check, "too weak" when
-even without a rival its confidence is under ``min_confidence``, else "refused for a rival");
-or "no candidate on the joint", followed, where a candidate's coarse polyline ran along the joint
-(a search saw it; its refined line went beside it, or it was set aside), by that candidate's
-verdict (:func:`coarse_along`). Where that candidate has ends read as open (fading out inside a
-sheet), how far short of the true end each lies, along the truth (:func:`open_ends`), binned by
-the true end's kind. For each view with no candidate on the joint, what the first way's coarse
-search and the profiles see along the true line (:mod:`bench.detect_unseen`: not seen, seen in
-pieces, seen whole; profiles fitting or not), a third table. Prints the tables (markdown; the
-first counts each verdict by look family) and writes the rows (with each view's look family and
-gap width) as JSON.
+A refusal's message names the candidates' reasons, but not which of them was the joint. Here each
+view of the wide and pen sets is detected again with ``detect_seam(trace=...)``, which hands over
+every list of candidates a choice was made over (the first way's, with the finer grid's, the valley
+paths'). A candidate *is the joint* when its points lie within :data:`NEAR_PX` (median) of the true
+centreline and it covers :data:`COVER_SHARE` of it. Each refused view is put in the first stage
+where the joint was a candidate, with that candidate's verdict (its reason with the numbers taken
+out; or, where it passed every check, "too weak" when even without a rival its confidence is under
+``min_confidence``, else "refused for a rival"); or "no candidate on the joint", followed, where a
+candidate's coarse polyline ran along the joint (a search saw it; its refined line went beside it,
+or it was set aside), by that candidate's verdict (:func:`coarse_along`). Where that candidate has
+ends read as open (fading out inside a sheet), how far short of the true end each lies, along the
+truth, or that it lies past it (:func:`open_ends`), binned by the true end's kind. For each view
+with no candidate on the joint, what the first way's coarse search and the profiles see along the
+true line (:mod:`bench.detect_unseen`: not seen, seen in pieces, seen whole; profiles fitting or
+not), a third table. Prints the tables (markdown; the first counts each verdict by look family) and
+writes the rows (with each view's look family and gap width) as JSON.
 
 The default part is ``tuning``, as for ``bench.detect_gallery``: reading the held-out part's
 failures one by one is how a rule gets fitted to it.
@@ -136,7 +135,8 @@ def open_ends(c: Candidate, truth_px: NDArray[np.float64], truth_kinds: list[str
               ) -> list[dict[str, Any]]:
     """Each end of the joint's candidate ``c`` read as open (fading out inside a sheet): how far
     short of the true end nearer it it lies (px along the true centreline, from the end's
-    nearest point on it) and that end's kind (``joint_end`` or ``image_border``). A candidate
+    nearest point on it; negative: past the true end, along the truth's course there) and that
+    end's kind (``joint_end`` or ``image_border``). A candidate
     refused before its ends were read (no points: no long run of gap profiles, a table's line)
     has none: its ``end_kinds`` are the unread default."""
     if c.points is None:
@@ -150,7 +150,13 @@ def open_ends(c: Candidate, truth_px: NDArray[np.float64], truth_kinds: list[str
         j = int(np.argmin(np.linalg.norm(truth_px - e, axis=1)))
         te = 0 if s[j] <= s[-1] / 2 else 1
         short = s[j] if te == 0 else s[-1] - s[j]
-        out.append({"short_px": round(float(short), 1), "truth_kind": truth_kinds[te]})
+        if short == 0.0:
+            # Nearest the true end itself: past it (negative) by as far as it lies out along the
+            # truth's course there, or at it.
+            end, inner = (truth_px[0], truth_px[1]) if te == 0 else (truth_px[-1], truth_px[-2])
+            out_dir = (end - inner) / max(float(np.linalg.norm(end - inner)), 1e-12)
+            short = -max(float((e - end) @ out_dir), 0.0)
+        out.append({"short_px": round(float(short), 1) + 0.0, "truth_kind": truth_kinds[te]})
     return out
 
 
@@ -208,16 +214,17 @@ def table(rows: list[dict[str, Any]]) -> str:
                    + " | ".join(str(by_look[k]) for k in looks) + f" | {', '.join(ex)} |")
     ends = [e for r in refused for e in r.get("open_ends", [])]
     if ends:
-        heads = [f"<= {SHORT_BINS[0]:.0f} px"] + [
+        heads = ["past it", f"<= {SHORT_BINS[0]:.0f} px"] + [
             f"{a:.0f}-{b:.0f} px" for a, b in zip(SHORT_BINS, SHORT_BINS[1:], strict=False)] + [
             f"> {SHORT_BINS[-1]:.0f} px"]
         out += ["", "Ends of the joint's line read as open (fading out inside a sheet), by how far "
-                "short of the true end they lie (along it):", "",
+                "short of the true end they lie (along it), or past it:", "",
                 "| true end | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|"]
         for kind in sorted({e["truth_kind"] for e in ends}):
-            n = np.bincount(np.searchsorted(SHORT_BINS, [e["short_px"] for e in ends
-                                                         if e["truth_kind"] == kind]),
-                            minlength=len(heads))
+            short = [e["short_px"] for e in ends if e["truth_kind"] == kind]
+            # (Column 0: past the true end; the bins of how far short follow.)
+            n = np.bincount([0 if v < 0 else 1 + int(np.searchsorted(SHORT_BINS, v))
+                             for v in short], minlength=len(heads))
             out.append(f"| {kind} | " + " | ".join(str(int(x)) for x in n) + " |")
     return "\n".join(out)
 

@@ -110,11 +110,19 @@ def test_an_open_end_says_how_far_short_of_the_true_end_it_lies() -> None:
     unread = _cand(300.0, why="candidate of 1000 px has no long run of gap profiles (3 of 9)")
     unread.points = None
     assert unread.end_kinds == ("open", "open") and open_ends(unread, TRUTH, ["joint_end"]) == []
+    # A line that runs on past the true end (into the wedge between two rounded corners) is not
+    # "0 px short": it says how far past (negative). Was 0.0: the table's "<= 8 px" column held
+    # ends 5-10 px past the joint's (wide easy tuning 10169, twenty-third session).
+    c.points = np.column_stack([np.linspace(-7, 800, 100), np.full(100, 301.0)])
+    c.end_kinds = ("open", "sheet border")
+    past = open_ends(c, TRUTH, ["joint_end", "image_border"])
+    assert past == [{"short_px": -7.0, "truth_kind": "joint_end"}]
     rows = [{"case": ["wide", "easy", "tuning", 7], "view": 0, "stage": "first way",
-             "verdict": "x", "open_ends": ends},
+             "verdict": "x", "open_ends": ends + past},
             {"case": ["wide", "easy", "tuning", 8], "view": 0, "stage": "first way",
              "verdict": "x", "open_ends": [{"short_px": 8.0, "truth_kind": "joint_end"}]}]
     md = table(rows)
-    assert "| true end | <= 8 px | 8-20 px | 20-50 px | 50-150 px | > 150 px |" in md
-    assert "| joint_end | 1 | 0 | 1 | 0 | 0 |" in md
-    assert "| image_border | 0 | 0 | 0 | 0 | 1 |" in md
+    assert ("| true end | past it | <= 8 px | 8-20 px | 20-50 px | 50-150 px | > 150 px |"
+            in md), md
+    assert "| joint_end | 1 | 1 | 0 | 1 | 0 | 0 |" in md
+    assert "| image_border | 0 | 0 | 0 | 0 | 0 | 1 |" in md
