@@ -223,9 +223,9 @@ def table(rows: list[dict[str, Any]]) -> str:
         for kind in sorted({e["truth_kind"] for e in ends}):
             short = [e["short_px"] for e in ends if e["truth_kind"] == kind]
             # (Column 0: past the true end; the bins of how far short follow.)
-            n = np.bincount([0 if v < 0 else 1 + int(np.searchsorted(SHORT_BINS, v))
+            per_bin = np.bincount([0 if v < 0 else 1 + int(np.searchsorted(SHORT_BINS, v))
                              for v in short], minlength=len(heads))
-            out.append(f"| {kind} | " + " | ".join(str(int(x)) for x in n) + " |")
+            out.append(f"| {kind} | " + " | ".join(str(int(x)) for x in per_bin) + " |")
     return "\n".join(out)
 
 
