@@ -1,0 +1,134 @@
+"""Would the seams held back for an unsure end have been right? Candidates capped, scored.
+
+Usage (from the repository root, on the render cache of ``bench.bench_detect``)::
+
+    .venv/bin/python -m bench.detect_unsure [--part tuning|heldout] [--pairs 150]
+        [--pen-pairs 50] [--tee-pairs 25] [--rough-pairs 60] [--strip-pairs 20] [--jobs 2]
+        [--out bench/out/unsure.json]
+
+A candidate whose end was read as an ``"unsure sheet border"`` (two borders seen equally well
+there) is capped at confidence 0.45 (:func:`controller.vision.seam_decision.rate_confidence`),
+under ``min_confidence``: it is never returned. Here each view of the sets named is detected
+again with ``detect_seam(trace=...)``; every candidate that passed all its checks
+(``why_rejected`` empty) with such an end is scored as if it had been returned
+(:func:`bench.detect_score.score_view`, an unsure border as a ``joint_end``), once however many
+stages listed it. Prints the counts by result and why (a markdown table) and the confidence
+each would have had without the cap; writes the rows as JSON. The cap is worth keeping while
+most such candidates would be wrong.
+
+The default part is ``tuning``: reading the held-out part's candidates one by one is how a rule
+gets fitted to it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import contextlib
+import json
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bench.detect_cases import case_cached, case_list, load_case, view_truth
+from bench.detect_score import score_view
+from controller.errors import SeamguideError
+from controller.geometry.camera_model import default_camera
+from controller.vision.seam_detect import detect_seam
+from controller.vision.seam_params import Candidate
+
+#: A detector end kind as ``seamguide detect`` reports it (an unsure border is a joint end).
+REPORTED = {"sheet border": "joint_end", "unsure sheet border": "joint_end",
+            "image border": "image_border"}
+
+
+def unsure_rows(stages: list[list[Candidate]], truth: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per distinct candidate of ``stages`` that passed its checks with an unsure end:
+    its score against ``truth`` (a view's truth with ``image_size``; result, why, end error in px
+    of the distorted image) and its confidence without the cap (0..1)."""
+    rows, seen = [], set()
+    for cands in stages:
+        for c in cands:
+            if c.points is None or c.why_rejected or not any(
+                    k.startswith("unsure") for k in c.end_kinds):
+                continue
+            key = tuple(np.round(c.points[[0, -1]]).ravel().tolist())
+            if key in seen:
+                continue
+            seen.add(key)
+            sc = score_view(c.points, truth, [REPORTED.get(k, k) for k in c.end_kinds])
+            rows.append({"result": sc["result"], "why": sc.get("why", ""),
+                         "end_px": round(float(sc.get("end", np.nan)), 1),
+                         "conf_uncapped": round(_uncapped(c), 2)})
+    return rows
+
+
+def _uncapped(c: Candidate) -> float:
+    """The confidence ``rate_confidence`` starts from (share of the line measured, depth),
+    before the cap for an unsure end and without a rival."""
+    return float(min(1.0, c.valid_frac / 0.9) * min(1.0, c.depth / 0.4))
+
+
+def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
+    """:func:`unsure_rows` of each view of a cached case, with the case and view."""
+    imgs, z = load_case(case)
+    out = []
+    for i, img in enumerate(imgs):
+        truth = view_truth(z, i)
+        truth["image_size"] = (img.shape[1], img.shape[0])
+        stages: list[list[Candidate]] = []
+        with contextlib.suppress(SeamguideError):  # a refusal still hands over its candidates
+            detect_seam(img, camera=default_camera(), trace=stages)
+        out += [{"case": list(case), "view": i, **r} for r in unsure_rows(stages, truth)]
+    return out
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """Markdown: the candidates by result and why, and their uncapped confidence's range."""
+    count = collections.Counter((r["result"], r["why"]) for r in rows)
+    out = [f"{len(rows)} candidates held back for an unsure end; scored as if returned:", "",
+           "| result | why | candidates | uncapped confidence |", "|---|---|---|---|"]
+    for (res, why), n in sorted(count.items(), key=lambda kv: -kv[1]):
+        conf: NDArray[np.float64] = np.array([r["conf_uncapped"] for r in rows
+                                              if (r["result"], r["why"]) == (res, why)])
+        out.append(f"| {res} | {why or '-'} | {n} | {conf.min():.2f}-{conf.max():.2f} |")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Detect the cached views, print the table, write the rows; 0, or 1 if none is cached."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--part", choices=("tuning", "heldout"), default="tuning")
+    ap.add_argument("--pairs", type=int, default=150, help="wide pairs per difficulty")
+    ap.add_argument("--pen-pairs", type=int, default=50)
+    ap.add_argument("--tee-pairs", type=int, default=25)
+    ap.add_argument("--rough-pairs", type=int, default=60)
+    ap.add_argument("--strip-pairs", type=int, default=20)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--out", default="bench/out/unsure.json")
+    a = ap.parse_args(argv)
+    cases = [c for d in ("easy", "medium", "hard") for c in case_list("wide", d, a.part, a.pairs)]
+    for name, n in (("pen", a.pen_pairs), ("tee", a.tee_pairs), ("rough", a.rough_pairs),
+                    ("strip", a.strip_pairs)):
+        cases += case_list(name, "mixed", a.part, n)
+    cases = [c for c in cases if case_cached(c)]
+    if not cases:
+        print("detect_unsure: no cached renders of that part: run `.venv/bin/python -m "
+              "bench.bench_detect --render-only` first", file=sys.stderr)
+        return 1
+    with ProcessPoolExecutor(a.jobs) as ex:
+        rows = [r for rs in ex.map(run_case, cases, chunksize=2) for r in rs]
+    if a.part == "heldout":
+        print("(the held-out part: to measure with, not to tune on)")
+    print(table(rows))
+    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(a.out).write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
