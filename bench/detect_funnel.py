@@ -136,9 +136,9 @@ def open_ends(c: Candidate, truth_px: NDArray[np.float64], truth_kinds: list[str
     """Each end of the joint's candidate ``c`` read as open (fading out inside a sheet): how far
     short of the true end nearer it it lies (px along the true centreline, from the end's
     nearest point on it; negative: past the true end, along the truth's course there) and that
-    end's kind (``joint_end`` or ``image_border``). A candidate
-    refused before its ends were read (no points: no long run of gap profiles, a table's line)
-    has none: its ``end_kinds`` are the unread default."""
+    end's kind (``joint_end`` or ``image_border``). A candidate refused before its ends were read
+    (no points: no long run of gap profiles, a table's line) has none: its ``end_kinds`` are the
+    unread default."""
     if c.points is None:
         return []
     pts = c.points
@@ -155,8 +155,9 @@ def open_ends(c: Candidate, truth_px: NDArray[np.float64], truth_kinds: list[str
             # truth's course there, or at it.
             end, inner = (truth_px[0], truth_px[1]) if te == 0 else (truth_px[-1], truth_px[-2])
             out_dir = (end - inner) / max(float(np.linalg.norm(end - inner)), 1e-12)
-            short = -max(float((e - end) @ out_dir), 0.0)
-        out.append({"short_px": round(float(short), 1) + 0.0, "truth_kind": truth_kinds[te]})
+            past = float((e - end) @ out_dir)
+            short = -past if past > 0.0 else 0.0
+        out.append({"short_px": round(float(short), 1), "truth_kind": truth_kinds[te]})
     return out
 
 
