@@ -28,11 +28,9 @@ failures one by one is how a rule gets fitted to it.
 
 from __future__ import annotations
 
-import argparse
 import collections
 import json
 import re
-import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -41,7 +39,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from bench.detect_cases import case_cached, case_list, load_case, view_truth
+from bench.detect_cases import cached_cases, load_case, part_parser, view_truth
 from bench.detect_score import dist_to_polyline
 from bench.detect_unseen import unseen_readings, unseen_table
 from controller.errors import SeamguideError
@@ -58,6 +56,8 @@ COVER_SHARE = 0.5  # share of the true centreline within 6 px of the candidate
 COARSE_NEAR_PX = 8.0
 COARSE_COVER_PX = 10.0
 STAGES = ("first way", "finer grid", "valley paths")
+#: The sets read and their default pairs (wide: per difficulty).
+PAIRS = {"wide": 50, "pen": 25}
 
 
 def on_joint(points: NDArray[np.float64] | None, truth_px: NDArray[np.float64],
@@ -232,19 +232,9 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Detect the cached views of one part, print the table, write the rows; 0, or 1 if none."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--part", choices=("tuning", "heldout"), default="tuning")
-    ap.add_argument("--pairs", type=int, default=50, help="wide pairs per difficulty")
-    ap.add_argument("--pen-pairs", type=int, default=25)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", default="bench/out/funnel.json")
-    a = ap.parse_args(argv)
-    cases = [c for d in ("easy", "medium", "hard") for c in case_list("wide", d, a.part, a.pairs)]
-    cases += case_list("pen", "mixed", a.part, a.pen_pairs)
-    cases = [c for c in cases if case_cached(c)]
+    a = part_parser(__doc__.splitlines()[0], PAIRS, "bench/out/funnel.json").parse_args(argv)
+    cases = cached_cases(a, PAIRS, "detect_funnel")
     if not cases:
-        print("detect_funnel: no cached renders of that part: run `.venv/bin/python -m "
-              "bench.bench_detect --render-only` first", file=sys.stderr)
         return 1
     with ProcessPoolExecutor(a.jobs) as ex:
         rows = [r for rs in ex.map(run_case, cases) for r in rs]

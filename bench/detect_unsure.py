@@ -22,11 +22,9 @@ gets fitted to it.
 
 from __future__ import annotations
 
-import argparse
 import collections
 import contextlib
 import json
-import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -34,13 +32,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bench.detect_cases import case_cached, case_list, load_case, view_truth
+from bench.detect_cases import cached_cases, load_case, part_parser, view_truth
 from bench.detect_score import score_view
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
+from controller.vision.seam_decision import base_confidence
 from controller.vision.seam_detect import detect_seam
 from controller.vision.seam_params import Candidate
 
+#: The sets read and their default pairs (wide: per difficulty).
+PAIRS = {"wide": 150, "pen": 50, "tee": 25, "rough": 60, "strip": 20}
 #: A detector end kind as ``seamguide detect`` reports it (an unsure border is a joint end).
 REPORTED = {"sheet border": "joint_end", "unsure sheet border": "joint_end",
             "image border": "image_border"}
@@ -63,14 +64,8 @@ def unsure_rows(stages: list[list[Candidate]], truth: dict[str, Any]) -> list[di
             sc = score_view(c.points, truth, [REPORTED.get(k, k) for k in c.end_kinds])
             rows.append({"result": sc["result"], "why": sc.get("why", ""),
                          "end_px": round(float(sc.get("end", np.nan)), 1),
-                         "conf_uncapped": round(_uncapped(c), 2)})
+                         "conf_uncapped": round(base_confidence(c), 2)})
     return rows
-
-
-def _uncapped(c: Candidate) -> float:
-    """The confidence ``rate_confidence`` starts from (share of the line measured, depth),
-    before the cap for an unsure end and without a rival."""
-    return float(min(1.0, c.valid_frac / 0.9) * min(1.0, c.depth / 0.4))
 
 
 def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
@@ -101,24 +96,9 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Detect the cached views, print the table, write the rows; 0, or 1 if none is cached."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--part", choices=("tuning", "heldout"), default="tuning")
-    ap.add_argument("--pairs", type=int, default=150, help="wide pairs per difficulty")
-    ap.add_argument("--pen-pairs", type=int, default=50)
-    ap.add_argument("--tee-pairs", type=int, default=25)
-    ap.add_argument("--rough-pairs", type=int, default=60)
-    ap.add_argument("--strip-pairs", type=int, default=20)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", default="bench/out/unsure.json")
-    a = ap.parse_args(argv)
-    cases = [c for d in ("easy", "medium", "hard") for c in case_list("wide", d, a.part, a.pairs)]
-    for name, n in (("pen", a.pen_pairs), ("tee", a.tee_pairs), ("rough", a.rough_pairs),
-                    ("strip", a.strip_pairs)):
-        cases += case_list(name, "mixed", a.part, n)
-    cases = [c for c in cases if case_cached(c)]
+    a = part_parser(__doc__.splitlines()[0], PAIRS, "bench/out/unsure.json").parse_args(argv)
+    cases = cached_cases(a, PAIRS, "detect_unsure")
     if not cases:
-        print("detect_unsure: no cached renders of that part: run `.venv/bin/python -m "
-              "bench.bench_detect --render-only` first", file=sys.stderr)
         return 1
     with ProcessPoolExecutor(a.jobs) as ex:
         rows = [r for rs in ex.map(run_case, cases, chunksize=2) for r in rs]

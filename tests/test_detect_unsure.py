@@ -34,3 +34,24 @@ def test_held_back_candidates_are_scored_once_and_others_left_out() -> None:
     md = table(rows)
     assert "3 candidates held back for an unsure end" in md
     assert "| wrong | partial | 1 | 1.00-1.00 |" in md and "| found | - | 1 | 1.00-1.00 |" in md
+
+
+def test_no_cached_renders_is_said_with_what_to_run(monkeypatch, tmp_path, capsys) -> None:
+    from bench import detect_cases, detect_unsure
+
+    monkeypatch.setattr(detect_cases, "CACHE", tmp_path)  # an empty render cache
+    assert detect_unsure.main(["--pairs", "1", "--strip-pairs", "1",
+                               "--out", str(tmp_path / "u.json")]) == 1
+    err = capsys.readouterr().err
+    assert "detect_unsure: no cached renders" in err
+    assert "bench.bench_detect --render-only" in err
+    assert not (tmp_path / "u.json").exists()
+
+
+def test_the_sets_and_pairs_come_from_the_command_line() -> None:
+    from bench.detect_cases import case_list, part_parser
+    from bench.detect_unsure import PAIRS
+
+    a = part_parser("x", PAIRS, "o.json").parse_args(["--part", "heldout", "--tee-pairs", "3"])
+    assert (a.part, a.wide_pairs, a.tee_pairs, a.strip_pairs) == ("heldout", 150, 3, 20)
+    assert len(case_list("tee", "mixed", a.part, a.tee_pairs)) == 3

@@ -179,6 +179,14 @@ def width_factor(width_px: float, p: DetectParams) -> float:
     return float(np.clip(1.0 - WIDE_SLOPE * (share - WIDE_KNEE), WIDE_FLOOR, 1.0))
 
 
+def base_confidence(c: Candidate) -> float:
+    """What a candidate's confidence (0..1) starts from, before its fit, rival, width and ends.
+
+    The share of its line measured (full at 90 %) times its relative gap depth (full at 0.4).
+    """
+    return float(min(1.0, c.valid_frac / 0.9) * min(1.0, c.depth / 0.4))
+
+
 def rate_confidence(c: Candidate, ratio: float,
                     p: DetectParams | None = None) -> tuple[float, list[str]]:
     """Confidence 0..1 of ``c`` (``ratio``: next candidate's score over its own) and why.
@@ -196,8 +204,8 @@ def rate_confidence(c: Candidate, ratio: float,
         reasons = [f"dark valley path {c.length_px:.0f} px long through the whole image",
                    f"a valley on {100 * c.valid_frac:.0f} % of it (covered stretches bridged)",
                    f"relative gap depth {c.depth:.2f}"]
-    conf = (min(1.0, c.valid_frac / 0.9) * min(1.0, c.depth / 0.4)
-            * max(0.0, 1.0 - max(0.0, c.resid - 0.05) * 4) * (1.0 - 0.5 * ratio))
+    conf = (base_confidence(c) * max(0.0, 1.0 - max(0.0, c.resid - 0.05) * 4)
+            * (1.0 - 0.5 * ratio))
     if c.width is not None and len(c.width):
         w = float(np.median(c.width))
         f = width_factor(w, p)
