@@ -294,3 +294,35 @@ def test_degenerate_hint_without_a_direction_gives_none():
                {})
     msg = str(info.value)
     assert "runs across the seam" in msg and "runs along [" not in msg, msg
+
+
+def _leaving_pair():
+    """The seam seen by view 1; view 2's curve leaves it along another line near one end (up to
+    60 mm aside at the end); both run out of their images at both ends (unseen ends)."""
+    from dataclasses import replace
+
+    P = seam_curve("straight")
+    s = np.linspace(-1.0, 1.0, len(P))
+    Q = P.copy()
+    Q[:, 0] += 60.0 * np.clip(s - 0.3, 0.0, None) ** 2 / 0.49
+    poses = camera_poses(P)
+    kinds = ("image_border", "image_border")
+    right = [replace(o, end_kinds=kinds) for o in observe(P, poses)]
+    return P, right, [right[0], replace(observe(Q, poses)[1], end_kinds=kinds)]
+
+
+def test_a_curve_leaving_the_seam_near_a_clipped_end_is_refused_by_the_nominal_line():
+    P, right, wrong = _leaving_pair()
+    region = (P.mean(axis=0), 70.0)
+    line = (P[::150], 5.0)  # the seam as drawn, every ~6 mm; 5 mm tolerance
+    # Clipping to the region hides the curve that left the seam (it would be refused without
+    # clipping): what is kept still runs millimetres off the seam toward the region's edge.
+    with pytest.raises(TriangulationError, match="nominal seam centre"):
+        locate_seam(wrong, nominal_region=region)
+    hidden = locate_seam(wrong, nominal_region=region, clip_unseen_ends=True)
+    assert error_to_truth(P, hidden)[1] > 2.0
+    with pytest.raises(TriangulationError, match="from the job's nominal line"):
+        locate_seam(wrong, nominal_region=region, clip_unseen_ends=True, nominal_line=line)
+    seam = locate_seam(right, nominal_region=region, clip_unseen_ends=True, nominal_line=line)
+    assert seam.quality["distance_from_nominal_line_mm_max"] < 0.5
+    assert error_to_truth(P, seam)[1] < 0.1

@@ -215,3 +215,39 @@ def test_a_dry_run_with_the_jobs_nominal_line_searches_each_view_around_it(tmp_p
     assert rep.seam_rms_mm <= 0.1
     assert len(calls) == 2 and all(h is not None and len(h) > 100 for h, _ in calls)
     assert all(p.hint_tol_px > 40.0 for _, p in calls)  # 10 mm at the views' 6-8 px/mm
+
+
+def test_the_located_seam_must_lie_within_the_tolerance_of_the_nominal_line():
+    """The cycle hands the job's line to locating: a seam found in both views but further from
+    the line than the tolerance is refused in 3D, whatever the views' detectors said."""
+    from types import SimpleNamespace
+
+    from stereo_scenes import camera_poses, observe, seam_curve
+
+    from controller.cell.guidance import locate_views
+    from controller.errors import TriangulationError
+
+    P = seam_curve("straight")
+    cam = default_camera()
+    poses = camera_poses(P)
+    curves = {f"view{i + 1}": o.seam_px for i, o in enumerate(observe(P, poses))}
+    img = np.zeros((cam.height, cam.width), np.uint8)
+    views = [ViewInput(name, img, cam, T) for name, T in zip(curves, poses, strict=True)]
+    names = iter(curves)  # the detector answers each view with its curve, in view order
+
+    def detector(image, camera=None, roi=None, params=None, hint=None):
+        return SimpleNamespace(points_px=curves[next(names)], end_kinds=("joint_end",) * 2)
+
+    centre = tuple(float(v) for v in P.mean(axis=0))
+    drawn = tuple(tuple(float(v) for v in q) for q in np.vstack([P[::300], P[-1:]]))
+    beside = tuple((x + 8.0, y, z) for x, y, z in drawn)  # the part 8 mm off the drawing
+    for drawing, ok in ((drawn, True), (beside, False)):
+        names = iter(curves)
+        s = GuidanceSettings(nominal_centre_mm=centre, nominal_radius_mm=150.0,
+                             nominal_line_mm=drawing, line_tolerance_mm=5.0)
+        if ok:
+            seam = locate_views(views, s, detector=detector).seam
+            assert seam.quality["distance_from_nominal_line_mm_max"] < 0.1
+        else:
+            with pytest.raises(TriangulationError, match="8.0 mm from the job's nominal line"):
+                locate_views(views, s, detector=detector)

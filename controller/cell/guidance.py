@@ -72,7 +72,8 @@ class GuidanceSettings:
     :data:`~controller.vision.seam_scale.DEFAULT_GAP_MM` and neither limit;
     ``nominal_line_mm`` (base frame, mm, two or more points in order along the seam) and
     ``line_tolerance_mm``: the seam as drawn, seen from each view as the detector's nominal
-    seam, and how far the real one may lie from it (:func:`nominal_hint`, :func:`view_params`).
+    seam, and how far the real one may lie from it (:func:`nominal_hint`, :func:`view_params`);
+    the located 3D seam must lie that close to the line too (``locate_seam``'s ``nominal_line``).
     """
 
     quality: QualityLimits = QualityLimits()
@@ -258,7 +259,10 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
     seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
                        count=settings.count, nominal_region=settings.nominal_region,
                        clip_unseen_ends=settings.clip_unseen_ends,
-                       normal=None if settings.normal is None else np.asarray(settings.normal))
+                       normal=None if settings.normal is None else np.asarray(settings.normal),
+                       nominal_line=None if settings.nominal_line_mm is None else (
+                           np.asarray(settings.nominal_line_mm, dtype=np.float64),
+                           settings.line_tolerance_mm))
     ends = seam.quality.get("ends", [])
     clipped = [e for e in ends if e["status"] == "clipped"]
     if clipped:

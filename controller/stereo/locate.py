@@ -80,15 +80,20 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
                 spacing_mm: float | None = 2.0, count: int | None = None,
                 sample_px: float = 2.0,
                 nominal_region: tuple[F64, float] | None = None,
-                clip_unseen_ends: bool = False, normal: F64 | None = None) -> Seam3D:
+                clip_unseen_ends: bool = False, normal: F64 | None = None,
+                nominal_line: tuple[F64, float] | None = None) -> Seam3D:
     """Triangulate a seam seen in two or more views; the first view is the reference.
 
     ``spacing_mm`` / ``count`` set the resampling of the output points (see
     :func:`controller.stereo.seam_curve.resample_curve`); ``sample_px`` the spacing of the reference
     curve samples; ``nominal_region`` = (centre mm, radius mm) from the job: every seam point must
     lie inside that sphere (it catches a wrong curve matched consistently, and gross calibration
-    errors that no two-view check can see). Raises :class:`TriangulationError` with the failing
-    numbers in ``details``.
+    errors that no two-view check can see). ``nominal_line`` = (points (M, 3) mm, tolerance mm),
+    the seam as the job draws it: every seam point must lie within the tolerance of it. It
+    catches what clipping to the region hides: one view's curve leaving the seam along another
+    line near an end no view sees triangulates to a curve that runs off the seam toward the
+    region's edge (cut there, the rest kept). Raises :class:`TriangulationError` with the
+    failing numbers in ``details``.
 
     Ends (:mod:`controller.stereo.seam_ends`): each end of the 3D seam must be seen by a view (a
     ``joint_end`` there). An end no view sees (the seam runs out of the images, or out of the
@@ -189,6 +194,11 @@ def locate_seam(views: list[ViewObservation], limits: QualityLimits = QualityLim
         quality["distance_from_nominal_mm_max"] = float(
             np.max(np.linalg.norm(dense - centre, axis=1)))
         quality["nominal_radius_mm"] = float(nominal_region[1])
+    if nominal_line is not None:
+        line = np.asarray(nominal_line[0], dtype=np.float64)
+        quality["distance_from_nominal_line_mm_max"] = float(
+            np.max(PolylineDistance(line)(dense)))
+        quality["line_tolerance_mm"] = float(nominal_line[1])
     _judge(quality, limits, degenerate_any & in_span, dense, s_ref, span.start, views, details)
     points = resample_curve(dense, spacing_mm, count)
     return Seam3D(points_mm=points, dense_points_mm=dense, ray_gap_mm=gap_mm,
@@ -274,6 +284,11 @@ def _judge(q: dict[str, Any], lim: QualityLimits, degenerate: NDArray[np.bool_],
                         f"job's nominal seam centre, outside its {q['nominal_radius_mm']:.0f} mm "
                         f"region: another edge was probably taken for the seam, or the part is "
                         f"not where the job expects it")
+    if q.get("distance_from_nominal_line_mm_max", 0.0) > q.get("line_tolerance_mm", np.inf):
+        problems.append(f"the seam lies up to {q['distance_from_nominal_line_mm_max']:.1f} mm "
+                        f"from the job's nominal line (tolerance {q['line_tolerance_mm']:.1f} "
+                        f"mm): a view's curve left the seam along another line (see the "
+                        f"overlays), or the part is not where the job draws it")
     widths = [(v.name, w) for v, w in zip(views, q.get("gap_width_mm") or [None] * len(views),
                                           strict=True) if w is not None]
     if len(widths) >= 2:
