@@ -190,10 +190,12 @@ def scene_features(case: tuple[str, str, str, int]) -> dict[str, Any]:
 
 def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | None],
             kinds: list[tuple[str, str] | None], cam: Any, clip: bool = False,
-            bands: list[tuple[np.ndarray, float] | None] | None = None) -> dict[str, Any]:
+            bands: list[tuple[np.ndarray, float] | None] | None = None,
+            nominal_line: tuple[np.ndarray, float] | None = None) -> dict[str, Any]:
     # As the cycle locates (controller/cell/guidance.py): with each view's end kinds, width and
     # split-off band (``bands``: (band_px, width px) or None per view); ``clip``: the job allows
-    # clipping ends no view sees to its nominal region.
+    # clipping ends no view sees to its nominal region; ``nominal_line``: the job's drawn seam
+    # (mm) and its tolerance (mm), the 3D seam held to it.
     both = np.intersect1d(z["seam_index0"], z["seam_index1"])
     truth = z["seam_points_mm"][both]
     bands = bands or [None] * len(curves)
@@ -204,7 +206,7 @@ def _locate(z: dict[str, Any], curves: list[np.ndarray], widths: list[float | No
     try:
         seam = locate_seam(views, nominal_region=(np.asarray(z["centre_mm"]),
                                                   float(z["radius_mm"]) + 20.0),
-                           clip_unseen_ends=clip)
+                           clip_unseen_ends=clip, nominal_line=nominal_line)
     except SeamguideError as err:
         return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:600]}"}
     dt = time.perf_counter() - t0

@@ -17,7 +17,10 @@ The nominal line is the scene's true seam (base frame) as a drawing would give i
 fixture's error: moved by up to ``--shift-mm`` in a random direction and turned by up to
 ``--turn-deg`` about a random axis through its middle (seeded by the case; the same for both
 views). Views are scored by ``bench.detect_score`` and counted as ``seamguide detect`` answers
-(``bench_detect.single_view``); pairs are located as ``bench.bench_detect`` does (no clipping).
+(``bench_detect.single_view``); pairs are located as ``bench.bench_detect`` does (no clipping),
+and again as a job that clips the ends no view sees (``cloc`` / ``cwrong``: located / wrong),
+the nominal line way's 3D seam then held within the tolerance of the line (since 2026-12-07,
+``locate_seam(nominal_line=...)``).
 """
 
 from __future__ import annotations
@@ -68,7 +71,7 @@ def run_case(args: tuple[tuple[str, str, str, int], float, float, float]) -> dic
 
     return {"case": list(case), "family": str(z["family"]),
             "defaults": detect_one_way(imgs, z, cam, lambda i, truth: (None, None)),
-            "nominal line": detect_one_way(imgs, z, cam, with_line)}
+            "nominal line": detect_one_way(imgs, z, cam, with_line, (line, tol_mm))}
 
 
 def summary(rows: list[dict[str, Any]], way: str) -> dict[str, int]:

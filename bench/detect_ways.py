@@ -4,7 +4,9 @@ compare ways of detecting (``bench.bench_detect_job_gap``, ``bench.bench_detect_
 A *way* gives each view its detector parameters and nominal seam (``setting(i, truth)`` ->
 ``(DetectParams or None, hint px or None)``). Views are scored by ``bench.detect_score`` and
 counted as ``seamguide detect`` answers (``bench_detect.single_view``); the pair is located as
-``bench.bench_detect`` locates it (no clipping), so the counts compare with its report.
+``bench.bench_detect`` locates it (no clipping), so the counts compare with its report, and
+(``pair_clip``) as a job that clips the ends no view sees, with the way's nominal line held in
+3D when it has one (``line3d``).
 """
 
 from __future__ import annotations
@@ -24,8 +26,11 @@ Setting = Callable[[int, dict[str, Any]], tuple[Any, Any]]
 
 
 def detect_one_way(imgs: list[np.ndarray], z: dict[str, Any], cam: Any,
-                   setting: Setting) -> dict[str, Any]:
-    """``{"views": [...], "pair": result}`` of one case's images ``imgs`` (truth ``z``)."""
+                   setting: Setting, line3d: tuple[np.ndarray, float] | None = None
+                   ) -> dict[str, Any]:
+    """``{"views": [...], "pair": result, "pair_clip": result}`` of one case's images ``imgs``
+    (truth ``z``); ``line3d``: the job's nominal line (mm) and tolerance (mm) for the clipped
+    pair."""
     views, curves, widths, kinds, bands = [], [], [], [], []
     for i, img in enumerate(imgs):
         truth = view_truth(z, i)
@@ -43,8 +48,11 @@ def detect_one_way(imgs: list[np.ndarray], z: dict[str, Any], cam: Any,
         views.append({k: r.get(k) for k in ("result", "why", "confidence", "error")})
     out: dict[str, Any] = {"views": views}
     if len(imgs) == 2:
+        both = len(curves) == 2
         out["pair"] = (_locate(z, curves, widths, kinds, cam, bands=bands)["result"]
-                       if len(curves) == 2 else "refused")
+                       if both else "refused")
+        out["pair_clip"] = (_locate(z, curves, widths, kinds, cam, clip=True, bands=bands,
+                                    nominal_line=line3d)["result"] if both else "refused")
     return out
 
 
@@ -57,13 +65,16 @@ def way_counts(rows: list[dict[str, Any]], way: str) -> dict[str, int]:
     out["views"] = len(views)
     out.update(pairs=len(pairs), pairs_located=pairs.count("located"),
                pairs_partial=pairs.count("partial"), pairs_wrong=pairs.count("wrong"))
+    clipped = [r[way].get("pair_clip") for r in rows if "pair" in r[way]]
+    out.update(clip_located=clipped.count("located"), clip_wrong=clipped.count("wrong"))
     return out
 
 
 #: Columns every comparison table prints after the way: (header, summary key, width).
 VIEW_COLS = [("views", "views", 5), ("found", "found", 5), ("wrong", "wrong", 5)]
 PAIR_COLS = [("pairs", "pairs", 5), ("loc", "pairs_located", 4), ("part", "pairs_partial", 4),
-             ("wrong", "pairs_wrong", 5)]
+             ("wrong", "pairs_wrong", 5), ("cloc", "clip_located", 4),
+             ("cwrong", "clip_wrong", 6)]
 
 
 def write_and_print(out: str, report: dict[str, Any], rows: list[dict[str, Any]], title: str,

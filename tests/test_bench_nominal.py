@@ -32,6 +32,9 @@ def test_one_rendered_pair_is_detected_both_ways_and_counted(monkeypatch, tmp_pa
         s = rep["summary"]["tuning/wide"][way]
         assert s["views"] == 2 and s["pairs"] == 1
         assert s["found"] + s["wrong"] + s["refused"] == 2
+        # The pair once more as a job that clips its unseen ends (the line held in 3D there).
+        assert s["clip_located"] + s["clip_wrong"] <= 1
+        assert rep["rows"][0][way]["pair_clip"] in ("located", "partial", "wrong", "refused")
     assert "nominal line" in capsys.readouterr().out
 
 
