@@ -29,9 +29,7 @@ the simulator changes what it draws.
 
 from __future__ import annotations
 
-import argparse
 import os
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -236,40 +234,3 @@ def view_truth(z: dict[str, Any], i: int) -> dict[str, Any]:
             "gap_px": float(z[f"gap_px{i}"]), "gap_mm": float(z["gap_mm"]),
             "ragged_mm": float(z["ragged_mm"]), "family": str(z["family"])}
 
-
-def part_parser(description: str, pairs: dict[str, int], out: str) -> argparse.ArgumentParser:
-    """The command line of a probe over the cached views of one part.
-
-    ``--part``, ``--pairs`` (wide pairs per difficulty, default ``pairs["wide"]``),
-    ``--SET-pairs`` for each other set of ``pairs`` (its default the value there), ``--jobs``
-    and ``--out`` (default ``out``).
-    """
-    ap = argparse.ArgumentParser(description=description)
-    ap.add_argument("--part", choices=("tuning", "heldout"), default="tuning")
-    for name, n in pairs.items():
-        flag = "--pairs" if name == "wide" else f"--{name}-pairs"
-        ap.add_argument(flag, dest=f"{name}_pairs", type=int, default=n,
-                        help="pairs per difficulty" if name == "wide" else f"{name} pairs")
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", default=out)
-    return ap
-
-
-def cached_cases(args: argparse.Namespace, pairs: dict[str, int], tool: str) -> list[Case]:
-    """The cached cases of the part ``args`` (from :func:`part_parser` with these ``pairs``).
-
-    ``wide`` takes its pairs for each difficulty; the other sets mix theirs. None cached: says so
-    on stderr, naming ``tool`` and the command that renders them, and returns an empty list.
-    """
-    cases: list[Case] = []
-    for name in pairs:
-        n = getattr(args, f"{name}_pairs")
-        if name == "wide":
-            cases += [c for d in DIFFICULTIES for c in case_list("wide", d, args.part, n)]
-        else:
-            cases += case_list(name, "mixed", args.part, n)
-    cases = [c for c in cases if case_cached(c)]
-    if not cases:
-        print(f"{tool}: no cached renders of that part: run `.venv/bin/python -m "
-              "bench.bench_detect --render-only` first", file=sys.stderr)
-    return cases

@@ -29,17 +29,15 @@ failures one by one is how a rule gets fitted to it.
 from __future__ import annotations
 
 import collections
-import json
 import re
-from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from bench.detect_cases import cached_cases, load_case, part_parser, view_truth
+from bench.detect_cases import load_case, view_truth
+from bench.detect_probe import run_probe
 from bench.detect_score import dist_to_polyline
 from bench.detect_unseen import unseen_readings, unseen_table
 from controller.errors import SeamguideError
@@ -230,21 +228,15 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(out)
 
 
+def report(rows: list[dict[str, Any]]) -> str:
+    """Both tables: where the joint was lost, and what is seen along it where no candidate was."""
+    return table(rows) + "\n\n" + unseen_table(rows)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Detect the cached views of one part, print the table, write the rows; 0, or 1 if none."""
-    a = part_parser(__doc__.splitlines()[0], PAIRS, "bench/out/funnel.json").parse_args(argv)
-    cases = cached_cases(a, PAIRS, "detect_funnel")
-    if not cases:
-        return 1
-    with ProcessPoolExecutor(a.jobs) as ex:
-        rows = [r for rs in ex.map(run_case, cases) for r in rs]
-    if a.part == "heldout":
-        print("(the held-out part: to measure with, not to tune on)")
-    print(table(rows))
-    print("\n" + unseen_table(rows))
-    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(a.out).write_text(json.dumps(rows, indent=1))
-    return 0
+    return run_probe(argv, __doc__.splitlines()[0], PAIRS, "bench/out/funnel.json",
+                     "detect_funnel", run_case, report, chunksize=1)
 
 
 if __name__ == "__main__":

@@ -24,15 +24,13 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import json
-from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bench.detect_cases import cached_cases, load_case, part_parser, view_truth
+from bench.detect_cases import load_case, view_truth
+from bench.detect_probe import run_probe
 from bench.detect_score import score_view
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
@@ -96,18 +94,8 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Detect the cached views, print the table, write the rows; 0, or 1 if none is cached."""
-    a = part_parser(__doc__.splitlines()[0], PAIRS, "bench/out/unsure.json").parse_args(argv)
-    cases = cached_cases(a, PAIRS, "detect_unsure")
-    if not cases:
-        return 1
-    with ProcessPoolExecutor(a.jobs) as ex:
-        rows = [r for rs in ex.map(run_case, cases, chunksize=2) for r in rs]
-    if a.part == "heldout":
-        print("(the held-out part: to measure with, not to tune on)")
-    print(table(rows))
-    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(a.out).write_text(json.dumps(rows, indent=1))
-    return 0
+    return run_probe(argv, __doc__.splitlines()[0], PAIRS, "bench/out/unsure.json",
+                     "detect_unsure", run_case, table)
 
 
 if __name__ == "__main__":

@@ -49,7 +49,8 @@ def test_no_cached_renders_is_said_with_what_to_run(monkeypatch, tmp_path, capsy
 
 
 def test_the_sets_and_pairs_come_from_the_command_line() -> None:
-    from bench.detect_cases import case_list, part_parser
+    from bench.detect_cases import case_list
+    from bench.detect_probe import part_parser
     from bench.detect_unsure import PAIRS
 
     a = part_parser("x", PAIRS, "o.json").parse_args(["--part", "heldout", "--tee-pairs", "3"])
