@@ -217,32 +217,38 @@ def test_a_dry_run_with_the_jobs_nominal_line_searches_each_view_around_it(tmp_p
     assert all(p.hint_tol_px > 40.0 for _, p in calls)  # 10 mm at the views' 6-8 px/mm
 
 
-def test_the_located_seam_must_lie_within_the_tolerance_of_the_nominal_line():
-    """The cycle hands the job's line to locating: a seam found in both views but further from
-    the line than the tolerance is refused in 3D, whatever the views' detectors said."""
+def _drawn_pair(kinds: tuple[str, str]):
+    """A straight seam seen by two views (``tests/stereo_scenes.py``), a detector that answers
+    each view with its curve and end ``kinds``, and the seam as drawn (mm)."""
     from types import SimpleNamespace
 
     from stereo_scenes import camera_poses, observe, seam_curve
 
-    from controller.cell.guidance import locate_views
-    from controller.errors import TriangulationError
-
     P = seam_curve("straight")
     cam = default_camera()
     poses = camera_poses(P)
-    curves = {f"view{i + 1}": o.seam_px for i, o in enumerate(observe(P, poses))}
-    img = np.zeros((cam.height, cam.width), np.uint8)
-    views = [ViewInput(name, img, cam, T) for name, T in zip(curves, poses, strict=True)]
-    names = iter(curves)  # the detector answers each view with its curve, in view order
+    curves = [o.seam_px for o in observe(P, poses)]
+    imgs = [np.full((cam.height, cam.width), i, np.uint8) for i in range(2)]  # view i: level i
+    views = [ViewInput(f"view{i + 1}", imgs[i], cam, T) for i, T in enumerate(poses)]
 
     def detector(image, camera=None, roi=None, params=None, hint=None):
-        return SimpleNamespace(points_px=curves[next(names)], end_kinds=("joint_end",) * 2)
+        # (The views are detected in two threads: told apart by their images, not by order.)
+        return SimpleNamespace(points_px=curves[int(image[0, 0])], end_kinds=kinds)
 
-    centre = tuple(float(v) for v in P.mean(axis=0))
     drawn = tuple(tuple(float(v) for v in q) for q in np.vstack([P[::300], P[-1:]]))
+    return P, views, detector, drawn
+
+
+def test_the_located_seam_must_lie_within_the_tolerance_of_the_nominal_line():
+    """The cycle hands the job's line to locating: a seam found in both views but further from
+    the line than the tolerance is refused in 3D, whatever the views' detectors said."""
+    from controller.cell.guidance import locate_views
+    from controller.errors import TriangulationError
+
+    P, views, detector, drawn = _drawn_pair(("joint_end", "joint_end"))
+    centre = tuple(float(v) for v in P.mean(axis=0))
     beside = tuple((x + 8.0, y, z) for x, y, z in drawn)  # the part 8 mm off the drawing
     for drawing, ok in ((drawn, True), (beside, False)):
-        names = iter(curves)
         s = GuidanceSettings(nominal_centre_mm=centre, nominal_radius_mm=150.0,
                              nominal_line_mm=drawing, line_tolerance_mm=5.0)
         if ok:
@@ -251,3 +257,18 @@ def test_the_located_seam_must_lie_within_the_tolerance_of_the_nominal_line():
         else:
             with pytest.raises(TriangulationError, match="8.0 mm from the job's nominal line"):
                 locate_views(views, s, detector=detector)
+
+
+def test_a_clipped_seam_without_a_drawn_line_is_said_to_be_unchecked(caplog):
+    from controller.cell.guidance import locate_views
+
+    P, views, detector, drawn = _drawn_pair(("image_border", "image_border"))
+    centre = tuple(float(v) for v in P.mean(axis=0))
+    for drawing in (None, drawn):
+        caplog.clear()
+        s = GuidanceSettings(nominal_centre_mm=centre, nominal_radius_mm=60.0,
+                             clip_unseen_ends=True, nominal_line_mm=drawing)
+        ends = locate_views(views, s, detector=detector).seam.quality["ends"]
+        assert [e["status"] for e in ends] == ["clipped", "clipped"]
+        said = "draws no nominal seam line" in caplog.text
+        assert said == (drawing is None)

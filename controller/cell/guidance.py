@@ -270,6 +270,11 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
             f"{e['end']} not seen by any view ({'; '.join(e['not_seen'])}): clipped to the "
             f"nominal region and off the image borders ({e['clipped_mm']:.1f} mm cut, "
             f"{e.get('border_trimmed_mm', 0.0):.1f} mm of it at the borders)" for e in clipped))
+        if settings.nominal_line_mm is None:
+            # The sphere's check does not see what clipping cut (README, *Twenty-fourth session*).
+            log.warning("the job draws no nominal seam line ([seam] nominal_line_mm): a view's "
+                        "curve that left the seam near a clipped end would not be caught; draw "
+                        "the seam in the job to have the located seam held to it")
     band = seam.quality.get("band_reading")
     if band is not None and band["reading"] == "band":
         log.info("the lighter part of the dark band beside the gap is a cut face inside it, not "
