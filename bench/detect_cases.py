@@ -233,4 +233,3 @@ def view_truth(z: dict[str, Any], i: int) -> dict[str, Any]:
             "pens": [z[f"pen{i}_{k}"] for k in range(int(z[f"n_pens{i}"]))],
             "gap_px": float(z[f"gap_px{i}"]), "gap_mm": float(z["gap_mm"]),
             "ragged_mm": float(z["ragged_mm"]), "family": str(z["family"])}
-

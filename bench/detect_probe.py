@@ -11,12 +11,15 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from bench.detect_cases import Case, case_cached, case_list
+from controller.vision.seam_params import Candidate
 from drivers.sim.sim_scene import DIFFICULTIES
 
 
@@ -57,6 +60,19 @@ def cached_cases(args: argparse.Namespace, pairs: dict[str, int], tool: str) -> 
               "bench.bench_detect --render-only` first", file=sys.stderr)
     return cases
 
+
+
+def distinct_lines(cands: Iterable[Candidate]) -> list[Candidate]:
+    """The first of ``cands`` (with points) for each line: a later stage lists a candidate again
+    (the finer grid's list holds the first way's), told by its end points rounded to the px."""
+    out, seen = [], set()
+    for c in cands:
+        assert c.points is not None
+        key = tuple(np.round(c.points[[0, -1]]).ravel().tolist())
+        if key not in seen:
+            seen.add(key)
+            out.append(c)
+    return out
 
 def run_probe(argv: list[str] | None, description: str, pairs: dict[str, int], out: str,
               tool: str, run_case: Callable[[Case], list[dict[str, Any]]],

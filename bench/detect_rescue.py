@@ -37,7 +37,7 @@ import numpy as np
 from bench.bench_detect import _detect, _locate
 from bench.detect_cases import load_case, view_truth
 from bench.detect_funnel import on_joint
-from bench.detect_probe import run_probe
+from bench.detect_probe import distinct_lines, run_probe
 from bench.detect_score import score_view
 from controller.errors import SeamguideError, SeamNotFound
 from controller.geometry.camera_model import default_camera
@@ -58,22 +58,13 @@ def held_back(stages: list[list[Candidate]], p: DetectParams) -> list[Candidate]
     Passed its checks or refused only for an open end; not open at both ends; no covered end;
     at least ``p.min_confidence`` with its ends read as borders and no rival.
     """
-    out, seen = [], set()
-    for cands in stages:
-        for c in cands:
-            if c.points is None or (c.why_rejected and c.refused != OPEN_END):
-                continue
-            if all(k == "open" for k in c.end_kinds) or any(k not in AS_SEEN
-                                                             for k in c.end_kinds):
-                continue
-            key = tuple(np.round(c.points[[0, -1]]).ravel().tolist())
-            if key in seen:
-                continue
-            seen.add(key)
-            plain = dataclasses.replace(c, end_kinds=("sheet border", "sheet border"))
-            if rate_confidence(plain, 0.0, p)[0] >= p.min_confidence:
-                out.append(c)
-    return out
+    lines = distinct_lines(
+        c for cands in stages for c in cands
+        if c.points is not None and (not c.why_rejected or c.refused == OPEN_END)
+        and not all(k == "open" for k in c.end_kinds) and all(k in AS_SEEN for k in c.end_kinds))
+    return [c for c in lines if rate_confidence(
+        dataclasses.replace(c, end_kinds=("sheet border", "sheet border")), 0.0, p)[0]
+        >= p.min_confidence]
 
 
 def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:

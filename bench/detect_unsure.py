@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bench.detect_cases import load_case, view_truth
-from bench.detect_probe import run_probe
+from bench.detect_probe import distinct_lines, run_probe
 from bench.detect_score import score_view
 from controller.errors import SeamguideError
 from controller.geometry.camera_model import default_camera
@@ -49,20 +49,14 @@ def unsure_rows(stages: list[list[Candidate]], truth: dict[str, Any]) -> list[di
     """One row per distinct candidate of ``stages`` that passed its checks with an unsure end:
     its score against ``truth`` (a view's truth with ``image_size``; result, why, end error in px
     of the distorted image) and its confidence without the cap (0..1)."""
-    rows, seen = [], set()
-    for cands in stages:
-        for c in cands:
-            if c.points is None or c.why_rejected or not any(
-                    k.startswith("unsure") for k in c.end_kinds):
-                continue
-            key = tuple(np.round(c.points[[0, -1]]).ravel().tolist())
-            if key in seen:
-                continue
-            seen.add(key)
-            sc = score_view(c.points, truth, [REPORTED.get(k, k) for k in c.end_kinds])
-            rows.append({"result": sc["result"], "why": sc.get("why", ""),
-                         "end_px": round(float(sc.get("end", np.nan)), 1),
-                         "conf_uncapped": round(base_confidence(c), 2)})
+    rows = []
+    for c in distinct_lines(c for cands in stages for c in cands
+                            if c.points is not None and not c.why_rejected
+                            and any(k.startswith("unsure") for k in c.end_kinds)):
+        sc = score_view(c.points, truth, [REPORTED.get(k, k) for k in c.end_kinds])
+        rows.append({"result": sc["result"], "why": sc.get("why", ""),
+                     "end_px": round(float(sc.get("end", np.nan)), 1),
+                     "conf_uncapped": round(base_confidence(c), 2)})
     return rows
 
 
