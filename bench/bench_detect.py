@@ -132,8 +132,7 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
     kinds: list[tuple[str, str] | None] = []
     bands: list[tuple[np.ndarray, float] | None] = []
     for i, img in enumerate(imgs):
-        truth = view_truth(z, i)
-        truth["image_size"] = (img.shape[1], img.shape[0])
+        truth = view_truth(z, i, img)
         v: dict[str, Any] = {"gap_px": truth["gap_px"], "end_kinds": truth["end_kinds"],
                              "spans": len(truth["spans"]), "pens": len(truth["pens"])}
         for name in ("ours", "published"):

@@ -97,8 +97,7 @@ def cached(cache: Path, per: int) -> list[dict[str, Any]]:
                     nominal_radius_mm=float(z["radius_mm"]) + 20.0)
                 for i in range(int(z["n_views"])):
                     img = cv2.imread(str(f)[:-4] + f"-{i}.png", cv2.IMREAD_UNCHANGED)
-                    truth = view_truth(z, i)
-                    truth["image_size"] = (img.shape[1], img.shape[0])
+                    truth = view_truth(z, i, img)
                     p = view_params(cam, z[f"T{i}"], settings)
                     rows.append({"set": kind_set, "difficulty": diff, "case": f.stem, "view": i,
                                  "gap_px": round(float(truth["gap_px"]), 1),

@@ -226,10 +226,17 @@ def load_case(case: Case) -> tuple[list[np.ndarray], dict[str, Any]]:
     return imgs, z
 
 
-def view_truth(z: dict[str, Any], i: int) -> dict[str, Any]:
-    """The truth of view ``i`` of a case: seam_px, end kinds and tolerance, spans, pens, gap_px."""
-    return {"seam_px": z[f"seam_px{i}"], "end_kinds": [str(k) for k in z[f"end_kinds{i}"]],
-            "end_tol_px": float(z[f"end_tol_px{i}"]), "spans": z[f"spans{i}"],
-            "pens": [z[f"pen{i}_{k}"] for k in range(int(z[f"n_pens{i}"]))],
-            "gap_px": float(z[f"gap_px{i}"]), "gap_mm": float(z["gap_mm"]),
-            "ragged_mm": float(z["ragged_mm"]), "family": str(z["family"])}
+def view_truth(z: dict[str, Any], i: int, image: Any = None) -> dict[str, Any]:
+    """The truth of view ``i`` of a case: seam_px, end kinds and tolerance, spans, pens, gap_px.
+
+    With the view's ``image`` (an array, rows x columns), also its ``image_size`` (width, height
+    px), which the scorer needs to tell an end at the image border.
+    """
+    truth = {"seam_px": z[f"seam_px{i}"], "end_kinds": [str(k) for k in z[f"end_kinds{i}"]],
+             "end_tol_px": float(z[f"end_tol_px{i}"]), "spans": z[f"spans{i}"],
+             "pens": [z[f"pen{i}_{k}"] for k in range(int(z[f"n_pens{i}"]))],
+             "gap_px": float(z[f"gap_px{i}"]), "gap_mm": float(z["gap_mm"]),
+             "ragged_mm": float(z["ragged_mm"]), "family": str(z["family"])}
+    if image is not None:
+        truth["image_size"] = (image.shape[1], image.shape[0])
+    return truth

@@ -81,8 +81,7 @@ def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
     b = 1 - a
     if not got[b]["error"].startswith(SeamNotFound.__name__):
         return []  # an ambiguous view said there are two lines: not for the other to choose
-    truth_a = view_truth(z, a)
-    truth_a["image_size"] = (imgs[a].shape[1], imgs[a].shape[0])
+    truth_a = view_truth(z, a, imgs[a])
     ra = got[a]
     a_result = score_view(ra["points"], truth_a, ra["kinds"])["result"]
     stages: list[list[Candidate]] = []

@@ -140,9 +140,9 @@ def main(argv: list[str] | None = None) -> int:
     if a.part == "heldout":
         print("(the held-out part: to measure with, not to tune on)")
     imgs, z = load_case(case)
-    truth = view_truth(z, a.view)
-    tp = np.asarray(truth["seam_px"], np.float64)
     img = imgs[a.view]
+    truth = view_truth(z, a.view, img)
+    tp = np.asarray(truth["seam_px"], np.float64)
     print(f"truth: {np.round(tp[0]).astype(int).tolist()} ({truth['end_kinds'][0]}) -> "
           f"{np.round(tp[-1]).astype(int).tolist()} ({truth['end_kinds'][1]}), gap "
           f"{truth['gap_px']:.1f} px, look {truth['family']}, {len(truth['pens'])} pen line(s), "
@@ -167,7 +167,6 @@ def main(argv: list[str] | None = None) -> int:
             print(f"open end {end} of the joint's candidate ({found[0]}): "
                   f"{end_reading(grey, found[1], end, DetectParams())}")
     if a.scales:
-        truth["image_size"] = (grey.shape[1], grey.shape[0])
         for line in shrunk_readings(grey, truth):
             print(line)
     return 0

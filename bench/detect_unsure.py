@@ -65,8 +65,7 @@ def run_case(case: tuple[str, str, str, int]) -> list[dict[str, Any]]:
     imgs, z = load_case(case)
     out = []
     for i, img in enumerate(imgs):
-        truth = view_truth(z, i)
-        truth["image_size"] = (img.shape[1], img.shape[0])
+        truth = view_truth(z, i, img)
         stages: list[list[Candidate]] = []
         with contextlib.suppress(SeamguideError):  # a refusal still hands over its candidates
             detect_seam(img, camera=default_camera(), trace=stages)

@@ -33,8 +33,7 @@ def detect_one_way(imgs: list[np.ndarray], z: dict[str, Any], cam: Any,
     pair."""
     views, curves, widths, kinds, bands = [], [], [], [], []
     for i, img in enumerate(imgs):
-        truth = view_truth(z, i)
-        truth["image_size"] = (img.shape[1], img.shape[0])
+        truth = view_truth(z, i, img)
         params, hint = setting(i, truth)
         r = _detect("ours", img, cam, params, hint=hint)
         if r["result"] == "returned":
