@@ -20,6 +20,4 @@ def rendered_view(cache: Path, case: detect_cases.Case, view: int
         mp.setattr(detect_cases, "CACHE", cache)
         detect_cases.render_case(case)
         imgs, z = detect_cases.load_case(case)
-    truth = detect_cases.view_truth(z, view)
-    truth["image_size"] = (imgs[view].shape[1], imgs[view].shape[0])
-    return imgs[view], truth
+    return imgs[view], detect_cases.view_truth(z, view, imgs[view])

@@ -41,16 +41,13 @@ joint's, so this looks for the *shape*, not for edges:
    3 finds the same seam (:mod:`controller.vision.seam_smaller`); after an ambiguity, only if it
    is one of the two lines (:func:`controller.vision.seam_smaller.one_of`).
 
-The steps live in :mod:`controller.vision.seam_coarse` (1, 2),
-:mod:`controller.vision.seam_profiles` (3),
-:mod:`controller.vision.seam_centreline` and :mod:`controller.vision.seam_ends` (4),
-:mod:`controller.vision.seam_decision` (5); :mod:`controller.vision.seam_params` holds the tuning.
-This module is the public entry.
+The steps live in :mod:`controller.vision.seam_coarse` (1, 2), :mod:`.seam_profiles` (3),
+:mod:`.seam_centreline` and :mod:`.seam_ends` (4), :mod:`.seam_decision` (5) (all in
+``controller.vision``); :mod:`.seam_params` holds the tuning. This module is the public entry.
 
 Pixels are (u, v) = (column, row), origin at the centre of the top-left pixel, in the *distorted*
 image (undistort with ``CameraModel.pixels_to_normalized``).
 """
-
 
 from __future__ import annotations
 
@@ -77,7 +74,7 @@ from controller.vision.seam_decision import (
     spans_of,
 )
 from controller.vision.seam_detection import SeamDetection
-from controller.vision.seam_edge_ends import carry_to_edge, correct_edge_ends
+from controller.vision.seam_edge_ends import carry_to_edge, correct_edge_ends, no_end_inside
 from controller.vision.seam_grain import no_grain_across, no_one_surface
 from controller.vision.seam_parallel import no_parallel_valley
 from controller.vision.seam_params import F64, OPEN_END, Candidate, DetectParams
@@ -157,7 +154,9 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         if hint_arr is None:  # the lines the full-size search saw, on the seam read shrunk
             no_stem_on(small.points_px, small.gap_width_px or 3.0,
                        [c for look in traced for c in look], p, x0, y0)
-        return moved(small, 1.0, (x0, y0))
+        det = moved(small, 1.0, (x0, y0))
+        no_end_inside(det.points_px - [x0, y0], det.end_kinds, sub.shape, x0, y0)
+        return det
 
 
 def search(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
@@ -239,6 +238,8 @@ def _one_line(sub: NDArray[np.uint8], lut: F64, best: Candidate, looked: list[Ca
         no_stem_on(best.points, float(np.median(best.width)) if best.width is not None else 3.0,
                    looked, p, x0, y0)
     carry_to_edge(sub, lut, best, p)
+    if p.carry and best.points is not None:  # (the shrunk search's seam: in detect_seam)
+        no_end_inside(best.points, best.end_kinds, sub.shape, x0, y0)
 
 
 def outside_corridor(cands: list[Candidate], hint: F64, p: DetectParams) -> None:

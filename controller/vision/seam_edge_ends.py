@@ -14,7 +14,10 @@ dark table is a sheet border (``joint_end``) at the step the end rules stopped a
 such end of the seam returned is where it leaves the image: its centreline is carried on
 straight to the edge, where it runs straight enough for that (an end called the image border
 lies on it), the stretch where no gap is seen reported as occluded (:func:`carry_to_edge`;
-README, *An image-border end on the border*).
+README, *An image-border end on the border*). Where it cannot be carried (the seam bends there)
+or is not (the search on the image shrunk), an end left farther inside the image than
+:data:`IMAGE_EDGE_PX` is not where the seam leaves the image: the seam is refused
+(:func:`no_end_inside`).
 """
 
 from __future__ import annotations
@@ -25,7 +28,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from controller.vision.seam_decision import arc_length
+from controller.errors import SeamNotFound
+from controller.vision.seam_decision import arc_length, points_summary
 from controller.vision.seam_ends import border_crossing, darker_than_sheets
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import bilinear
@@ -208,3 +212,37 @@ def _carry(c: Candidate, end: int, way: _Way) -> None:
         b_last = c.band_points[-1] if end == 1 else c.band_points[0]
         c.band_points = grow(c.band_points, b_last + step)
     c.length_px = float(arc_length(c.points)[-1])
+
+
+#: Farthest (px) an end called the image border may lie from the edge of the image searched
+#: once carried on to it: the contract's ``image_border`` is where the seam leaves the image.
+#: The seams returned with such an end left farther inside (the end rules stopped at a step near
+#: the edge, and the seam bends there or was read on the image shrunk) were wrong, 8 of 8 over
+#: every set of both parts, 33-114 px inside (README, *An image-border end left inside*).
+IMAGE_EDGE_PX = 12.0
+
+
+def no_end_inside(points: F64, kinds: tuple[str, str], shape: tuple[int, ...], x0: int,
+                  y0: int) -> None:
+    """Raise :class:`SeamNotFound` where an image-border end of a seam lies inside the image.
+
+    ``points``: the seam's centreline (px of the region searched, of ``shape`` (H, W), whose
+    corner in the image is ``x0, y0``); ``kinds``: its two ends' kinds (first, last; the
+    detector's words or the contract's). An image-border end farther than
+    :data:`IMAGE_EDGE_PX` from the region's edge is seen neither to end nor to leave the image:
+    what stopped it (a tack weld or spatter near the edge, a sheet's end) is not known, and
+    welding on to the edge, or stopping there, may be wrong.
+    """
+    H, W = shape[:2]
+    for end, kind in zip((points[0], points[-1]), kinds, strict=True):
+        u, v = float(end[0]), float(end[1])
+        inside = min(u + 0.5, v + 0.5, W - 0.5 - u, H - 0.5 - v)
+        if kind.replace("_", " ") == "image border" and inside > IMAGE_EDGE_PX:
+            raise SeamNotFound(
+                f"the seam found stops {inside:.0f} px inside the image at "
+                f"({u + x0:.0f}, {v + y0:.0f}), where something it cannot see past (a tack weld, "
+                "spatter, a sheet's end) lies between it and the image's edge: it is seen "
+                "neither to end nor to leave the image; move the view so that the joint's end, "
+                "or the seam running on out of the image, is seen",
+                best_px=points_summary(points, x0, y0), end_px=[round(u + x0, 1),
+                                                                round(v + y0, 1)])
