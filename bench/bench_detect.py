@@ -65,12 +65,12 @@ from bench.detect_cases import (
 )
 from bench.detect_score import end_kinds_of, score_view
 from bench.published_detect import published_detect
-from controller.errors import AmbiguousSeam, SeamguideError
+from controller.errors import AmbiguousSeam, SeamguideError, SeamNotFound
 from controller.geometry.camera_model import default_camera
 from controller.stereo.locate import ViewObservation, locate_seam
 from controller.stereo.triangulate import PolylineDistance
-from controller.vision.seam_decision import one_reading
 from controller.vision.seam_detect import DetectParams, detect_seam
+from controller.vision.seam_edge_ends import one_image_answer
 
 BINS = (0.0, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99, 1.0001)
 
@@ -88,15 +88,15 @@ def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None,
             way = str(det.stats.get("way", ""))
             band = None if det.band_px is None else (det.band_px, det.band_width_px)
             try:  # what `seamguide detect` answers from this image alone
-                one_reading(det.points_px, det.band_px, params or DetectParams())
-                ambiguous = None
-            except AmbiguousSeam as err:
-                ambiguous = f"AmbiguousSeam: {str(err)[:600]}"
+                one_image_answer(det, params or DetectParams(), (0, 0, img.shape[1], img.shape[0]))
+                alone = None
+            except (AmbiguousSeam, SeamNotFound) as err:
+                alone = f"{type(err).__name__}: {str(err)[:600]}"
             stats: dict[str, Any] = {k: v for k, v in det.stats.items() if k != "way"}
             stats["ends_px"] = np.round(det.endpoints_px, 1).tolist()
         else:
             pts, conf, kinds, width, way = published_detect(img), 1.0, None, None, ""
-            band, ambiguous = None, None
+            band, alone = None, None
             stats = {}
     except SeamguideError as err:
         return {"result": "refused", "error": f"{type(err).__name__}: {str(err)[:600]}",
@@ -106,19 +106,20 @@ def _detect(name: str, img: np.ndarray, cam: Any, params: Any = None,
                 "time_s": time.perf_counter() - t0}
     return {"result": "returned", "points": pts, "confidence": conf, "kinds": kinds,
             "width_px": width, "way": way, "stats": stats, "band": band,
-            "ambiguous": ambiguous, "time_s": time.perf_counter() - t0}
+            "alone": alone, "time_s": time.perf_counter() - t0}
 
 
 def single_view(r: dict[str, Any]) -> dict[str, Any]:
-    """A scored ``_detect`` result as ``seamguide detect`` answers: refused where one image holds
-    two readings (a shadow split off without the job's gap, ``seam_decision.one_reading``),
-    with what the core's reading would have scored (``core_result``). The cycle still locates
-    with both readings (``_locate``)."""
-    if not r.get("ambiguous"):
-        r.pop("ambiguous", None)
+    """A scored ``_detect`` result as ``seamguide detect`` answers: refused where the image alone
+    gives no answer (``seam_edge_ends.one_image_answer``: two readings of a shadow split off
+    without the job's gap, or an end called the image border left inside the image), with what
+    the seam returned would have scored (``core_result``). The cycle still locates with it
+    (``_locate``)."""
+    if not r.get("alone"):
+        r.pop("alone", None)
         return r
-    return {"result": "refused", "error": r["ambiguous"], "time_s": r["time_s"],
-            "core_result": r["result"], "split": True}
+    return {"result": "refused", "error": r["alone"], "time_s": r["time_s"],
+            "core_result": r["result"], "split": bool(r.get("split"))}
 
 
 def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]:

@@ -45,15 +45,22 @@ def test_pairs_are_located_with_the_detectors_end_kinds(monkeypatch: pytest.Monk
 
 
 def test_a_split_single_view_counts_as_seamguide_detect_answers_it() -> None:
-    found = {"result": "found", "ambiguous": None, "time_s": 0.1, "confidence": 0.9}
+    found = {"result": "found", "alone": None, "time_s": 0.1, "confidence": 0.9}
     assert bench_detect.single_view(dict(found)) == {k: v for k, v in found.items()
-                                                     if k != "ambiguous"}
-    split = {**found, "ambiguous": "AmbiguousSeam: ... one image cannot tell which ..."}
+                                                     if k != "alone"}
+    # run_case marks a view whose shadow was split off (its band came along) before.
+    split = {**found, "alone": "AmbiguousSeam: ... one image cannot tell which ...", "split": True}
     out = bench_detect.single_view(split)
     assert out["result"] == "refused" and out["core_result"] == "found" and out["split"]
     assert "one image cannot tell" in out["error"] and "confidence" not in out
-    s = bench_detect.summarise([{"views": [{"ours": out}, {"ours": found}]}], "ours")
-    assert (s["found"], s["refused"], s["split"]) == (1, 1, 1)
+    # An end called the image border left inside the image: refused too, not a split.
+    inside = {**found, "result": "wrong",
+              "alone": "SeamNotFound: the seam found stops 64 px inside the image at (1, 2), ..."}
+    out2 = bench_detect.single_view(inside)
+    assert out2["result"] == "refused" and out2["core_result"] == "wrong" and not out2["split"]
+    s = bench_detect.summarise([{"views": [{"ours": out}, {"ours": found}, {"ours": out2}]}],
+                               "ours")
+    assert (s["found"], s["refused"], s["split"], s["wrong"]) == (1, 2, 1, 0)
 
 
 def test_pair_summary_counts_the_clipped_pairs_and_old_reports_say_nothing() -> None:

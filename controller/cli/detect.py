@@ -83,8 +83,8 @@ def _parse_hint(texts: list[str] | None) -> list[tuple[float, float]] | None:
 def run(args: argparse.Namespace) -> int:
     """Run ``seamguide detect``; returns 0, or raises a SeamguideError (its exit code is used)."""
     from controller.vision.image_io import load_image
-    from controller.vision.seam_decision import one_reading
-    from controller.vision.seam_detect import DetectParams, detect_seam
+    from controller.vision.seam_detect import DetectParams, checked_roi, detect_seam
+    from controller.vision.seam_edge_ends import one_image_answer
     from controller.vision.seam_overlay import draw_overlay, refused_lines
 
     camera = None
@@ -104,8 +104,9 @@ def run(args: argparse.Namespace) -> int:
     det = None
     try:
         det = detect_seam(image, camera=camera, roi=roi, hint=hint, params=params)
-        # A shadow split off without the job's gap: two readings one image cannot choose from.
-        one_reading(det.points_px, det.band_px, params)
+        # What one image cannot answer alone: a shadow split off without the job's gap (two
+        # readings), an end called the image border left inside the image.
+        one_image_answer(det, params, checked_roi(roi, image.shape[1], image.shape[0]))
     except (SeamNotFound, AmbiguousSeam) as err:
         if args.overlay:
             drawn, legend = refused_lines(err)

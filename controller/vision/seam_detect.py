@@ -74,7 +74,7 @@ from controller.vision.seam_decision import (
     spans_of,
 )
 from controller.vision.seam_detection import SeamDetection
-from controller.vision.seam_edge_ends import carry_to_edge, correct_edge_ends, no_end_inside
+from controller.vision.seam_edge_ends import carry_to_edge, correct_edge_ends
 from controller.vision.seam_grain import no_grain_across, no_one_surface
 from controller.vision.seam_parallel import no_parallel_valley
 from controller.vision.seam_params import F64, OPEN_END, Candidate, DetectParams
@@ -124,7 +124,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
                          f"{camera.width}x{camera.height}; use the calibration of this camera "
                          "(or resize the image back to the calibrated size)",
                          image_size=[W, H], calibration_size=[camera.width, camera.height])
-    x0, y0, x1, y1 = _check_roi(roi, W, H)
+    x0, y0, x1, y1 = checked_roi(roi, W, H)
     sub = grey[y0:y1, x0:x1]
     hint_arr = None if hint is None else _check_hint(hint) - [x0, y0]
     straighten = None if camera is None else straightener(camera, x0, y0)
@@ -154,9 +154,7 @@ def detect_seam(image: NDArray[Any], *, camera: CameraModel | None = None,
         if hint_arr is None:  # the lines the full-size search saw, on the seam read shrunk
             no_stem_on(small.points_px, small.gap_width_px or 3.0,
                        [c for look in traced for c in look], p, x0, y0)
-        det = moved(small, 1.0, (x0, y0))
-        no_end_inside(det.points_px - [x0, y0], det.end_kinds, sub.shape, x0, y0)
-        return det
+        return moved(small, 1.0, (x0, y0))
 
 
 def search(sub: NDArray[np.uint8], hint_arr: F64 | None, p: DetectParams,
@@ -238,8 +236,6 @@ def _one_line(sub: NDArray[np.uint8], lut: F64, best: Candidate, looked: list[Ca
         no_stem_on(best.points, float(np.median(best.width)) if best.width is not None else 3.0,
                    looked, p, x0, y0)
     carry_to_edge(sub, lut, best, p)
-    if p.carry and best.points is not None:  # (the shrunk search's seam: in detect_seam)
-        no_end_inside(best.points, best.end_kinds, sub.shape, x0, y0)
 
 
 def outside_corridor(cands: list[Candidate], hint: F64, p: DetectParams) -> None:
@@ -385,7 +381,8 @@ def _check_hint(hint: ArrayLike) -> F64:
     return resample(h, 2.0, extend=0.0)[0]
 
 
-def _check_roi(roi: Any, W: int, H: int) -> tuple[int, int, int, int]:
+def checked_roi(roi: Any, W: int, H: int) -> tuple[int, int, int, int]:
+    """The region searched (x0, y0, x1, y1; end exclusive) of a W x H image: ``roi`` clipped."""
     if roi is None:
         return 0, 0, W, H
     try:

@@ -16,8 +16,9 @@ straight to the edge, where it runs straight enough for that (an end called the 
 lies on it), the stretch where no gap is seen reported as occluded (:func:`carry_to_edge`;
 README, *An image-border end on the border*). Where it cannot be carried (the seam bends there)
 or is not (the search on the image shrunk), an end left farther inside the image than
-:data:`IMAGE_EDGE_PX` is not where the seam leaves the image: the seam is refused
-(:func:`no_end_inside`).
+:data:`IMAGE_EDGE_PX` is not where the seam leaves the image: as the answer from that image alone
+(``seamguide detect``) the seam is refused (:func:`no_end_inside`, :func:`one_image_answer`);
+two views (the cycle, ``seamguide locate``) take the 3D end from the view that sees it, or clip.
 """
 
 from __future__ import annotations
@@ -29,7 +30,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.errors import SeamNotFound
-from controller.vision.seam_decision import arc_length, points_summary
+from controller.vision.seam_decision import arc_length, one_reading, points_summary
+from controller.vision.seam_detection import SeamDetection
 from controller.vision.seam_ends import border_crossing, darker_than_sheets
 from controller.vision.seam_params import F64, Candidate, DetectParams
 from controller.vision.seam_profiles import bilinear
@@ -218,8 +220,24 @@ def _carry(c: Candidate, end: int, way: _Way) -> None:
 #: once carried on to it: the contract's ``image_border`` is where the seam leaves the image.
 #: The seams returned with such an end left farther inside (the end rules stopped at a step near
 #: the edge, and the seam bends there or was read on the image shrunk) were wrong, 8 of 8 over
-#: every set of both parts, 33-114 px inside (README, *An image-border end left inside*).
+#: every set of both parts, 33-114 px inside (README, *Twenty-fifth session*).
 IMAGE_EDGE_PX = 12.0
+
+
+def one_image_answer(det: SeamDetection, p: DetectParams,
+                     box: tuple[int, int, int, int]) -> None:
+    """Raise where the seam ``det`` (full-image px) is no answer from its image alone.
+
+    ``box``: the region searched (x0, y0, x1, y1; the whole image without a region of
+    interest). Two readings one image cannot choose from
+    (:func:`controller.vision.seam_decision.one_reading`: :class:`AmbiguousSeam`), or an end
+    called the image border left inside it (:func:`no_end_inside`: :class:`SeamNotFound`).
+    ``seamguide detect`` answers so, and the benchmark's single views; the cycle and
+    ``seamguide locate`` take ``det`` as it is and decide with the other view.
+    """
+    one_reading(det.points_px, det.band_px, p)
+    x0, y0, x1, y1 = box
+    no_end_inside(det.points_px - [x0, y0], det.end_kinds, (y1 - y0, x1 - x0), x0, y0)
 
 
 def no_end_inside(points: F64, kinds: tuple[str, str], shape: tuple[int, ...], x0: int,
