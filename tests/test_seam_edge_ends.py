@@ -183,6 +183,8 @@ def test_an_image_border_end_left_inside_the_image_is_refused():
         c.points = np.column_stack([x, 300.0 + (x - 944.0) ** 2 / (2.0 * radius)])
         carry_to_edge(img, LUT, c)
         if radius == 1000.0:
+            # (Read as a region whose corner lies at x = 10 in the image: the message and the
+            # details give image px.)
             with pytest.raises(SeamNotFound, match="stops 56 px inside the image at \\(954, 300\\)"
                                ) as err:
                 no_end_inside(c.points, c.end_kinds, img.shape, 10, 0)
