@@ -3,24 +3,25 @@
 Usage (from the repository root, on the render cache of ``bench.bench_detect``)::
 
     .venv/bin/python -m bench.detect_funnel [--part tuning|heldout] [--pairs 50] [--pen-pairs 25]
-        [--jobs 2] [--out bench/out/funnel.json]
+        [--tee-pairs 0] [--rough-pairs 0] [--strip-pairs 0] [--jobs 2] [--out bench/out/funnel.json]
 
 A refusal's message names the candidates' reasons, but not which of them was the joint. Here each
-view of the wide and pen sets is detected again with ``detect_seam(trace=...)``, which hands over
-every list of candidates a choice was made over (the first way's, with the finer grid's, the valley
-paths'). A candidate *is the joint* when its points lie within :data:`NEAR_PX` (median) of the true
-centreline and it covers :data:`COVER_SHARE` of it. Each refused view is put in the first stage
-where the joint was a candidate, with that candidate's verdict (its reason with the numbers taken
-out; or, where it passed every check, "too weak" when even without a rival its confidence is under
-``min_confidence``, else "refused for a rival"); or "no candidate on the joint", followed, where a
-candidate's coarse polyline ran along the joint (a search saw it; its refined line went beside it,
-or it was set aside), by that candidate's verdict (:func:`coarse_along`). Where that candidate has
-ends read as open (fading out inside a sheet), how far short of the true end each lies, along the
-truth, or that it lies past it (:func:`open_ends`), binned by the true end's kind. For each view
-with no candidate on the joint, what the first way's coarse search and the profiles see along the
-true line (:mod:`bench.detect_unseen`: not seen, seen in pieces, seen whole; profiles fitting or
-not), a third table. Prints the tables (markdown; the first counts each verdict by look family) and
-writes the rows (with each view's look family and gap width) as JSON.
+view of the wide and pen sets (and of those asked for) is detected again with
+``detect_seam(trace=...)``, which hands over every list of candidates a choice was made over (the
+first way's, with the finer grid's, the valley paths'). A candidate *is the joint* when its points
+lie within :data:`NEAR_PX` (median) of the true centreline and it covers :data:`COVER_SHARE` of it.
+Each refused view is put in the first stage where the joint was a candidate, with that candidate's
+verdict (its reason with the numbers taken out; or, where it passed every check, "too weak" when
+even without a rival its confidence is under ``min_confidence``, else "refused for a rival"); or "no
+candidate on the joint", followed, where a candidate's coarse polyline ran along the joint (a search
+saw it; its refined line went beside it, or it was set aside), by that candidate's verdict
+(:func:`coarse_along`). Where that candidate has ends read as open (fading out inside a sheet), how
+far short of the true end each lies, along the truth, or that it lies past it (:func:`open_ends`),
+binned by the true end's kind. For each view with no candidate on the joint, what the first way's
+coarse search and the profiles see along the true line (:mod:`bench.detect_unseen`: not seen, seen
+in pieces, seen whole; profiles fitting or not), a third table. Prints the tables (markdown; the
+first counts each verdict by look family) and writes the rows (with each view's look family and gap
+width) as JSON.
 
 The default part is ``tuning``, as for ``bench.detect_gallery``: reading the held-out part's
 failures one by one is how a rule gets fitted to it.
@@ -54,8 +55,10 @@ COVER_SHARE = 0.5  # share of the true centreline within 6 px of the candidate
 COARSE_NEAR_PX = 8.0
 COARSE_COVER_PX = 10.0
 STAGES = ("first way", "finer grid", "valley paths")
-#: The sets read and their default pairs (wide: per difficulty).
-PAIRS = {"wide": 50, "pen": 25}
+#: The sets read and their default pairs (wide: per difficulty). The T-corner close-ups, the rough
+#: look and the ground strips are read when asked (``--tee-pairs 25``: the close-ups' T-corners,
+#: the look of the held-back robot seam camera's images).
+PAIRS = {"wide": 50, "pen": 25, "tee": 0, "rough": 0, "strip": 0}
 
 
 def on_joint(points: NDArray[np.float64] | None, truth_px: NDArray[np.float64],

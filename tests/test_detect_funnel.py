@@ -126,3 +126,17 @@ def test_an_open_end_says_how_far_short_of_the_true_end_it_lies() -> None:
             in md), md
     assert "| joint_end | 1 | 1 | 0 | 1 | 0 | 0 |" in md
     assert "| image_border | 0 | 0 | 0 | 0 | 0 | 1 |" in md
+
+
+def test_the_t_corner_close_ups_are_read_when_asked_for() -> None:
+    from bench.detect_cases import case_list
+    from bench.detect_funnel import PAIRS
+    from bench.detect_probe import part_parser
+
+    plain = part_parser("x", PAIRS, "o.json").parse_args([])
+    assert (plain.wide_pairs, plain.pen_pairs, plain.tee_pairs, plain.rough_pairs,
+            plain.strip_pairs) == (50, 25, 0, 0, 0)  # as before: the wide and pen sets
+    assert case_list("tee", "mixed", plain.part, plain.tee_pairs) == []
+    a = part_parser("x", PAIRS, "o.json").parse_args(["--pairs", "0", "--tee-pairs", "3"])
+    assert (a.wide_pairs, a.tee_pairs) == (0, 3)
+    assert len(case_list("tee", "mixed", a.part, a.tee_pairs)) == 3
