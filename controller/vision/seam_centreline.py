@@ -209,9 +209,12 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         else:
             hi = keep_n
         parts.append(ext)
-    if "covered" in end_kinds and crossed < _MAX_PATCHES:
+    if "covered" in end_kinds and crossed < _MAX_PATCHES and any(
+            b is not None for b in beyonds):
         # Across the patch to the gap beyond, and the whole candidate again: the profiles across
-        # the patch fail, and the run bridges them as a hole (reported as occluded).
+        # the patch fail, and the run bridges them as a hole (reported as occluded). Where no
+        # gap was seen beyond (a patch on the joint with the sheets going on beside it) there
+        # is nothing to cross to: the same line measured again reads the same end.
         b0, b1 = beyonds
         poly = np.vstack([b0[::-1] if b0 is not None else pts_run[:0], pts_run,
                           b1 if b1 is not None else pts_run[:0]])
