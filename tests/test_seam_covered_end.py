@@ -3,8 +3,8 @@
 Where a line's end reads as a patch on the joint (steps on the lines beside the gap, but the
 sheets go on beside it: a tack weld's bead), ``seam_centreline.refine`` extends the line across
 the patch to the gap seen beyond and measures it again. Where no gap is seen beyond, there is
-nothing to cross: measuring the same line again (up to ten times, as before) read the same end
-and only took the time (on the wide look's views 40 % of all refinements).
+nothing to cross: it used to measure the same line again anyway, up to ten times, nearly always
+reading the same end (164 of 408 refinements on 48 views of the wide look's tuning part).
 """
 
 from __future__ import annotations

@@ -88,7 +88,8 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
     """Fill in ``c.points``, ``c.width``, ``c.end_kinds`` and ``c.score``, or ``c.why_rejected``.
 
     Where an end is a covered patch (a tack weld: the gap goes on beyond it) the candidate is
-    extended to the gap beyond and refined again (``crossed``: patches crossed so far).
+    extended to the gap seen beyond and refined again (``crossed``: patches crossed so far); a
+    covered end with no gap seen beyond stands.
     """
     c.band_points, c.band_width = None, None
     pts, nrm = resample(c.polyline, p.step_px, extend=24.0)
@@ -214,7 +215,9 @@ def refine(grey: NDArray[np.uint8], lut: F64, c: Candidate, p: DetectParams,
         # Across the patch to the gap beyond, and the whole candidate again: the profiles across
         # the patch fail, and the run bridges them as a hole (reported as occluded). Where no
         # gap was seen beyond (a patch on the joint with the sheets going on beside it) there
-        # is nothing to cross to: the same line measured again reads the same end.
+        # is nothing to cross to: measured again and again (up to ten times, until ddc64a6) the
+        # same line nearly always read the same end, and otherwise one the line's last px
+        # happened to land on (README, *Twenty-sixth session*).
         b0, b1 = beyonds
         poly = np.vstack([b0[::-1] if b0 is not None else pts_run[:0], pts_run,
                           b1 if b1 is not None else pts_run[:0]])
