@@ -65,12 +65,14 @@ from bench.detect_cases import (
 )
 from bench.detect_score import end_kinds_of, score_view
 from bench.published_detect import published_detect
+from controller.cell.other_view import seam_from_other_view
 from controller.errors import AmbiguousSeam, SeamguideError, SeamNotFound
 from controller.geometry.camera_model import default_camera
 from controller.stereo.locate import ViewObservation, locate_seam
 from controller.stereo.triangulate import PolylineDistance
 from controller.vision.seam_detect import DetectParams, detect_seam
 from controller.vision.seam_edge_ends import one_image_answer
+from controller.vision.seam_lines import measured_lines
 
 BINS = (0.0, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99, 1.0001)
 
@@ -132,12 +134,16 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
     widths: list[float | None] = []
     kinds: list[tuple[str, str] | None] = []
     bands: list[tuple[np.ndarray, float] | None] = []
+    refused: list[int] = []  # views ours refused (seam not found, ambiguous)
     for i, img in enumerate(imgs):
         truth = view_truth(z, i, img)
         v: dict[str, Any] = {"gap_px": truth["gap_px"], "end_kinds": truth["end_kinds"],
                              "spans": len(truth["spans"]), "pens": len(truth["pens"])}
         for name in ("ours", "published"):
             r = _detect(name, img, cam)
+            if name == "ours" and r["result"] == "refused" and r["error"].startswith(
+                    (SeamNotFound.__name__, AmbiguousSeam.__name__)):
+                refused.append(i)
             if r["result"] == "returned":
                 said = r.pop("kinds")
                 r.update(score_view(r["points"], truth, said))
@@ -155,15 +161,46 @@ def run_case(case: tuple[str, str, str, int], cam: Any = None) -> dict[str, Any]
             v[name] = single_view(r)
         row["views"].append(v)
     if len(imgs) == 2:
-        row["pair"] = (_locate(z, curves, widths, kinds, cam, bands=bands) if len(curves) == 2
-                       else {"result": "refused"})
+        lines = (measured_lines(imgs[refused[0]], camera=cam)
+                 if len(curves) == 1 and len(refused) == 1 else None)
+        # Without, then with a job that lets the seam be clipped to its nominal region where no
+        # view sees an end ([seam] clip_unseen_ends): how long seams are welded.
+        for key, clip in (("pair", False), ("pair_clip", True)):
+            if len(curves) == 2:
+                row[key] = _locate(z, curves, widths, kinds, cam, clip=clip, bands=bands)
+            elif lines is not None:
+                row[key] = _other_view_pair(z, lines, refused[0], curves[0], widths[0],
+                                            kinds[0], bands[0], cam, clip)
+            else:
+                row[key] = {"result": "refused"}
         row["pair"]["ends_seen"] = all(k == "joint_end" for v in row["views"]
                                        for k in v["end_kinds"])
-        # The same pair with a job that lets the seam be clipped to its nominal region where no
-        # view sees an end ([seam] clip_unseen_ends): how long seams are welded.
-        row["pair_clip"] = (_locate(z, curves, widths, kinds, cam, clip=True, bands=bands)
-                            if len(curves) == 2 else {"result": "refused"})
     return row
+
+
+def _other_view_pair(z: dict[str, Any], lines: list[Any], b: int, curve: np.ndarray,
+                     width: float | None, kind: tuple[str, str] | None,
+                     band: tuple[np.ndarray, float] | None, cam: Any, clip: bool
+                     ) -> dict[str, Any]:
+    # As the cycle does where one view is refused (controller/cell/guidance.py): the refused
+    # view's line whose ends meet the other view's seam (controller/cell/other_view.py), then
+    # the pair located and scored as any other.
+    a = 1 - b
+    found = ViewObservation(cam, z[f"T{a}"], curve, f"view{a + 1}", kind, width,
+                            None if band is None else band[0], None if band is None else band[1])
+    like = ViewObservation(cam, z[f"T{b}"], curve, f"view{b + 1}")
+    region = (np.asarray(z["centre_mm"]), float(z["radius_mm"]) + 20.0)
+    other = seam_from_other_view(lines, like, found, b == 0, lambda views: locate_seam(
+        views, nominal_region=region, clip_unseen_ends=clip))
+    if other is None:
+        return {"result": "refused", "other_view_lines": len(lines)}
+    obs = other.observation
+    curves, widths, kinds, bands = [curve, curve], [width, width], [kind, kind], [band, None]
+    curves[b], widths[b], kinds[b], bands[b] = obs.seam_px, obs.gap_width_px, obs.end_kinds, None
+    bands[a] = band
+    out = _locate(z, curves, widths, kinds, cam, clip=clip, bands=bands)
+    out["other_view"] = True
+    return out
 
 
 def scene_features(case: tuple[str, str, str, int]) -> dict[str, Any]:
@@ -252,6 +289,11 @@ def summarise(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
         if clip:
             for k in ("located", "partial", "wrong"):
                 out[f"pairs_clip_{k}"] = sum(p["result"] == k for p in clip)
+        # Pairs with one view refused, located with its line the other view's seam chose
+        # (controller/cell/other_view.py): by result, without and with clipping.
+        for key, ps in (("pairs_other_view", pairs), ("pairs_clip_other_view", clip)):
+            got = [p["result"] for p in ps if p.get("other_view")]
+            out[key] = {k: got.count(k) for k in sorted(set(got))}
     return out
 
 

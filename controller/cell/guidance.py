@@ -24,7 +24,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from controller.cell.job import Job
-from controller.errors import SeamguideError
+from controller.cell.other_view import OtherViewSeam, seam_from_other_view
+from controller.errors import AmbiguousSeam, SeamguideError, SeamNotFound
 from controller.geometry.camera_model import CameraModel
 from controller.geometry.kinematics import RobotModel, irb2400
 from controller.geometry.poses import Pose
@@ -193,18 +194,13 @@ def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSetting
     return p
 
 
-def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
-                 detector: Detector | None = None, outcomes: list[Any] | None = None
-                 ) -> list[Any]:
-    """The seam in each view (in view order), inside the nominal region's box when there is one.
+def search_args(views: Sequence[ViewInput], settings: GuidanceSettings
+                ) -> tuple[list[Any], list[DetectParams | None], list[Any] | None]:
+    """Per view: region of interest, detector parameters and nominal line px for the search.
 
-    Two views at a time (:func:`detect_seams`), each with its own camera model and the pixel
-    scales of its working distance (:func:`view_params`). Raises what the detector raises (seam
-    not found, ambiguous seam), the message starting with the view's name; ``outcomes`` (if
-    given) then holds every view's detection or error, as :func:`detect_seams` fills it.
+    The region is the nominal region's box, the parameters :func:`view_params`'s, the line
+    :func:`nominal_hint`'s (None for all views: the job draws no line).
     """
-    from controller.vision.seam_views import detect_seams
-
     region = settings.nominal_region
     rois = [nominal_roi(v.camera, v.T_base_cam, *region) if region is not None else None
             for v in views]
@@ -217,6 +213,22 @@ def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
             if h is None:
                 log.warning("%s: the job's nominal line is not in front of this camera; the "
                             "seam found in this view is not checked against it", v.name)
+    return rois, params, hints
+
+
+def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
+                 detector: Detector | None = None, outcomes: list[Any] | None = None
+                 ) -> list[Any]:
+    """The seam in each view (in view order), inside the nominal region's box when there is one.
+
+    Two views at a time (:func:`detect_seams`), each with its own camera model and the pixel
+    scales of its working distance (:func:`view_params`). Raises what the detector raises (seam
+    not found, ambiguous seam), the message starting with the view's name; ``outcomes`` (if
+    given) then holds every view's detection or error, as :func:`detect_seams` fills it.
+    """
+    from controller.vision.seam_views import detect_seams
+
+    rois, params, hints = search_args(views, settings)
     return detect_seams([v.image for v in views], camera=[v.camera for v in views], rois=rois,
                         detector=detector, names=[v.name for v in views], params=params,
                         hints=hints, outcomes=outcomes)
@@ -245,24 +257,32 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
         if note is not None:
             note(view_layout_warning=warning)
     outcomes: list[Any] = []
+    other: OtherViewSeam | None = None
     try:
-        detections = detect_views(views, settings, detector, outcomes)
-    except SeamguideError:
-        if on_detections is not None and len(outcomes) == len(views):
-            on_detections(outcomes)
-        raise
+        detections: list[Any] = detect_views(views, settings, detector, outcomes)
+    except SeamguideError as err:
+        if detector is None and len(outcomes) == len(views):
+            other = _other_view(views, settings, outcomes)
+        if other is None:
+            if on_detections is not None and len(outcomes) == len(views):
+                on_detections(outcomes)
+            raise
+        log.warning("%s; of the lines it measured, the one whose ends meet the seam found in "
+                    "the other view is taken (%d looked at)", err, other.tried)
+        detections = outcomes
     if on_detections is not None:
         on_detections(detections)
     if check is not None:
         check()
-    observations = [observation(v, d) for v, d in zip(views, detections, strict=True)]
-    seam = locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
-                       count=settings.count, nominal_region=settings.nominal_region,
-                       clip_unseen_ends=settings.clip_unseen_ends,
-                       normal=None if settings.normal is None else np.asarray(settings.normal),
-                       nominal_line=None if settings.nominal_line_mm is None else (
-                           np.asarray(settings.nominal_line_mm, dtype=np.float64),
-                           settings.line_tolerance_mm))
+    if other is None:
+        observations = [observation(v, d) for v, d in zip(views, detections, strict=True)]
+        seam = locate_with(observations, settings)
+    else:
+        observations = [other.observation if isinstance(d, SeamguideError) else observation(v, d)
+                        for v, d in zip(views, detections, strict=True)]
+        seam = other.seam
+        if note is not None:
+            note(other_view=other.note(detections))
     ends = seam.quality.get("ends", [])
     clipped = [e for e in ends if e["status"] == "clipped"]
     if clipped:
@@ -283,6 +303,40 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
     if note is not None:
         note(seam_ends=ends, **({} if band is None else {"band_reading": band}))
     return Located(seam, list(detections), observations, warning)
+
+
+def locate_with(observations: list[ViewObservation], settings: GuidanceSettings) -> Seam3D:
+    """:func:`locate_seam` with the job's limits, region, clipping, normal and nominal line."""
+    return locate_seam(observations, settings.quality, spacing_mm=settings.spacing_mm,
+                       count=settings.count, nominal_region=settings.nominal_region,
+                       clip_unseen_ends=settings.clip_unseen_ends,
+                       normal=None if settings.normal is None else np.asarray(settings.normal),
+                       nominal_line=None if settings.nominal_line_mm is None else (
+                           np.asarray(settings.nominal_line_mm, dtype=np.float64),
+                           settings.line_tolerance_mm))
+
+
+def _other_view(views: Sequence[ViewInput], settings: GuidanceSettings,
+                outcomes: list[Any]) -> OtherViewSeam | None:
+    """The refused view's line whose ends meet the other view's seam, or None.
+
+    Two views, one refused (seam not found, ambiguous), the other found:
+    :mod:`controller.cell.other_view`.
+    """
+    from controller.vision.seam_lines import measured_lines
+
+    refused = [i for i, d in enumerate(outcomes) if isinstance(d, (SeamNotFound, AmbiguousSeam))]
+    if len(views) != 2 or len(refused) != 1 or any(
+            isinstance(d, SeamguideError) for i, d in enumerate(outcomes) if i != refused[0]):
+        return None
+    b = refused[0]
+    rois, params, hints = search_args(views, settings)
+    lines = measured_lines(views[b].image, camera=views[b].camera, roi=rois[b], params=params[b],
+                           hint=None if hints is None else hints[b])
+    found = observation(views[1 - b], outcomes[1 - b])
+    like = ViewObservation(views[b].camera, views[b].T_base_cam, found.seam_px, views[b].name)
+    return seam_from_other_view(lines, like, found, b == 0,
+                                lambda obs: locate_with(obs, settings))
 
 
 def observation(view: ViewInput, detection: Any) -> ViewObservation:
