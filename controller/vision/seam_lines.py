@@ -76,5 +76,7 @@ def measured_lines(image: NDArray[Any], *, camera: CameraModel | None = None,
                 continue  # (the finer grid hands on the first way's lines again)
             seen.append(ends)
             width = float(np.median(c.width)) if c.width is not None else 0.0
-            out.append(MeasuredLine(c.points + [x0, y0], width, c.end_kinds, c.why_rejected))
+            why = c.why_rejected or ("passed every check alone, refused as too weak or for a rival "
+                                     "(the view's refusal says)")
+            out.append(MeasuredLine(c.points + [x0, y0], width, c.end_kinds, why))
     return out
