@@ -97,3 +97,18 @@ def test_a_rendered_pair_with_one_view_refused_is_located(tmp_path):
     err = PolylineDistance(z["seam_points_mm"][both])(located.seam.dense_points_mm)
     assert err.max() < 0.5
     assert located.observations[0].end_kinds is not None
+
+
+def test_a_seam_is_not_cut_where_the_refused_views_line_fades_out(scene):
+    """The found view's second end leaves its image (no view sees the joint end there): the 3D
+    seam is clipped where the stereo overlap ends. Where that is the refused view's line fading
+    out 18 mm before the joint goes on, the seam would be welded short: not taken; where the line
+    leaves its image there, the end is unseen like any other and the seam is taken."""
+    P, poses, found, like = scene
+    half_blind = replace(found, end_kinds=("joint_end", "image_border"))
+    fades = _line(P[:2700], poses, ("sheet border", "open"))
+    assert seam_from_other_view([fades], like, half_blind, False, _locate) is None
+    leaves = _line(P[:2700], poses, ("sheet border", "image border"))
+    got = seam_from_other_view([leaves], like, half_blind, False, _locate)
+    assert got is not None
+    assert [e["status"] for e in got.seam.quality["ends"]] == ["seen", "clipped"]

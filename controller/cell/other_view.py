@@ -13,9 +13,12 @@ when
    exists: a pen line, a scratch or a plate's outer edge beside the joint ends elsewhere;
 2. the refused view's own ends count only where it read a sure sheet border (also within
    :data:`END_RAY_GAP_MM` of the 3D end); an end it read as fading out, covered or unsure is one
-   it does not see, like a seam leaving its image: the 3D seam ends where the finding view says,
-   or is clipped (the job allows it) or refused as any unseen end is;
-3. exactly one line passes: two lines that both fit are a choice this does not make.
+   it does not see (``image_border`` to :func:`locate_seam`, which then clips or refuses an end
+   no view sees, as the job says);
+3. no end of the 3D seam that no view sees lies where the refused view's line stops inside its
+   image (read as fading out, covered or unsure): the found view sees the seam go on there, and
+   a seam cut where one view stopped seeing it would be welded short;
+4. exactly one line passes: two lines that both fit are a choice this does not make.
 
 Measured on the benchmark's extended tuning part (README, *Twenty-seventh session*). Pixels are
 (u, v) in each view's distorted image; 3D in the base frame (mm).
@@ -27,10 +30,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from controller.errors import SeamguideError
 from controller.stereo.locate import Seam3D, ViewObservation
-from controller.stereo.seam_ends import IMAGE_BORDER, JOINT_END
-from controller.vision.seam_lines import SURE_END, MeasuredLine
+from controller.stereo.seam_ends import END_MATCH_PX, IMAGE_BORDER, JOINT_END
+from controller.vision.seam_lines import IMAGE_END, SURE_END, MeasuredLine
 
 #: An end the finding view sees must lie this close (mm) to its end ray (half the locate limit,
 #: ``max_endpoint_gap_mm``: the benchmark's located seams' ends lie within 0.3 mm; lines that met
@@ -73,6 +78,27 @@ def observation_of(line: MeasuredLine, like: ViewObservation) -> ViewObservation
                            (kinds[0], kinds[1]), line.width_px if line.width_px > 0 else None)
 
 
+def _cut_where_it_fades(seam: Seam3D, obs: ViewObservation, line: MeasuredLine) -> bool:
+    """Whether an end of ``seam`` no view sees lies where ``line`` stops inside its image.
+
+    An end of the refused view's line read as fading out (or covered, or unsure) is where that
+    view stopped seeing the gap, not where the seam ends: the found view sees it go on. Cut there
+    (the stereo overlap ends with the line), the seam would be welded short of the joint's end
+    (the T-corner tuning pair 60027: 34 % of the joint). Such a seam is not taken; an unseen end
+    where the line leaves its image, or beyond the line's end, is an unseen end like any other.
+    """
+    ends = line.points_px[[0, -1]]
+    for e, end3d in zip(seam.quality.get("ends", []), seam.dense_points_mm[[0, -1]], strict=False):
+        if e["status"] == "seen":
+            continue
+        uv = obs.camera.project(end3d[None], obs.T_base_cam)[0]
+        d = np.linalg.norm(ends - uv, axis=1)
+        i = int(np.argmin(d))
+        if d[i] <= END_MATCH_PX and line.end_readings[i] != IMAGE_END:
+            return True
+    return False
+
+
 def seam_from_other_view(lines: Sequence[MeasuredLine], refused: ViewObservation,
                          found: ViewObservation, refused_first: bool,
                          locate: Callable[[list[ViewObservation]], Seam3D]
@@ -99,7 +125,8 @@ def seam_from_other_view(lines: Sequence[MeasuredLine], refused: ViewObservation
         seen = [e for e in ends if e["status"] == "seen"]
         if any(e["ray_gap_mm"] > END_RAY_GAP_MM for e in seen):
             continue
-        if sum(found.name in e["seen_by"] for e in seen) < n_joint:
+        if sum(found.name in e["seen_by"] for e in seen) < n_joint or _cut_where_it_fades(seam, obs,
+                                                                                   line):
             continue
         passing.append(OtherViewSeam(line, obs, seam, len(lines)))
     return passing[0] if len(passing) == 1 else None
