@@ -23,6 +23,13 @@ the rows as JSON. Not in the cycle (README, *Measured and not kept, twenty-fourt
 and made 2 and 3 wrong 3D seams, every one where A's own seam was wrong (an end read past a
 rounded corner in both views, a shadow band in both, two different lines: 33 mm off). Two views
 detected independently are the check; a rescued pair is only as right as one view.
+
+The cycle has had a stricter form of it since the twenty-seventh session
+(``controller.cell.other_view``, measured by ``bench.bench_detect``'s pairs): every end the
+returning view reads as the joint's end must be where the 3D seam ends (within 0.5 mm of its
+ray), B's lines are those measured by gap profiles (no valley paths), an ambiguous B is tried
+too, and a seam is not cut where B's line fades out inside its image. This probe stays as the
+measurement of the looser rule the README reports.
 """
 
 from __future__ import annotations
