@@ -15,6 +15,7 @@ from controller.geometry.camera_model import default_camera
 from controller.stereo.locate import locate_seam
 from controller.stereo.triangulate import PolylineDistance
 from controller.vision.seam_lines import MeasuredLine
+from controller.vision.seam_overlay import refused_lines
 from tests.stereo_scenes import CENTRE, camera_poses, observe, seam_curve
 
 
@@ -93,6 +94,10 @@ def test_a_rendered_pair_with_one_view_refused_is_located(tmp_path):
     assert notes["other_view"]["view"] == "view1"
     assert notes["other_view"]["refused"] == "SeamNotFound"
     assert isinstance(seen[0], SeamNotFound) and not isinstance(seen[1], Exception)
+    # View 1's picture shows its refusal and draws the line taken.
+    drawn, legend = refused_lines(seen[0])
+    assert len(drawn) == 1 and "view2" in legend[0]
+    assert np.array_equal(drawn[0], located.observations[0].seam_px)
     both = np.intersect1d(z["seam_index0"], z["seam_index1"])
     err = PolylineDistance(z["seam_points_mm"][both])(located.seam.dense_points_mm)
     assert err.max() < 0.5

@@ -269,7 +269,7 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
             raise
         log.warning("%s; of the lines it measured, the one whose ends meet the seam found in "
                     "the other view is taken (%d looked at)", err, other.tried)
-        detections = outcomes
+        detections = other.marked(outcomes)
     if on_detections is not None:
         on_detections(detections)
     if check is not None:

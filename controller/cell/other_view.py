@@ -51,6 +51,18 @@ class OtherViewSeam:
     observation: ViewObservation
     seam: Seam3D
     tried: int  # lines triangulated
+    along: str  # the found view's name
+
+    def marked(self, outcomes: list[Any]) -> list[Any]:
+        """``outcomes`` (every view's detection or error), the refused view's error marked.
+
+        Its details now carry the line taken (``taken_px``, ``taken_along``): its picture draws
+        it (:func:`controller.vision.seam_overlay.refused_lines`).
+        """
+        for d in outcomes:
+            if isinstance(d, SeamguideError):
+                d.details.update(taken_px=self.line.points_px, taken_along=self.along)
+        return outcomes
 
     def note(self, outcomes: Sequence[Any]) -> dict[str, Any]:
         """The record's ``other_view`` note: the refused view, why, and the line taken there.
@@ -128,5 +140,5 @@ def seam_from_other_view(lines: Sequence[MeasuredLine], refused: ViewObservation
         if sum(found.name in e["seen_by"] for e in seen) < n_joint or _cut_where_it_fades(seam, obs,
                                                                                    line):
             continue
-        passing.append(OtherViewSeam(line, obs, seam, len(lines)))
+        passing.append(OtherViewSeam(line, obs, seam, len(lines), found.name))
     return passing[0] if len(passing) == 1 else None

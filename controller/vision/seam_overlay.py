@@ -55,12 +55,18 @@ _NAMES = ("cyan", "magenta", "orange")
 def refused_lines(err: Exception) -> tuple[list[ArrayLike], list[str]]:
     """The lines (image px, each (N, 2)) a refusal drew attention to, and what to write of them.
 
-    An ambiguous refusal: the strongest line and the one it could not be told from (its
-    details' ``best_px``, ``second_px``). A refused best candidate (too weak, fading out): that
+    A view refused alone whose line the cycle took by the other view's seam
+    (:mod:`controller.cell.other_view`): that line (``taken_px``, ``taken_along``). An ambiguous
+    refusal: the strongest line and the one it could not be told from (its details' ``best_px``,
+    ``second_px``). A refused best candidate (too weak, fading out): that
     one (``best_px``). No candidate passing: the strongest lines looked at, each with why it was
     refused (``looked_at_px``, ``looked_at_why``). Other errors: none.
     """
     d = getattr(err, "details", {})
+    if "taken_px" in d:  # the cycle took one of its lines by the other view's seam
+        return [d["taken_px"]], [f"1 (cyan): the line taken, its ends meeting the seam found in "
+                                 f"{d.get('taken_along', 'the other view')} (the record's "
+                                 "other_view)"]
     roi = "Give a --roi around the joint, and check the seam found there"
     if "second_px" in d:
         return [d["best_px"], d["second_px"]], [
