@@ -195,9 +195,9 @@ def _other_view_pair(z: dict[str, Any], lines: list[Any], b: int, curve: np.ndar
     if other is None:
         return {"result": "refused", "other_view_lines": len(lines)}
     obs = other.observation
-    curves, widths, kinds, bands = [curve, curve], [width, width], [kind, kind], [band, None]
-    curves[b], widths[b], kinds[b], bands[b] = obs.seam_px, obs.gap_width_px, obs.end_kinds, None
-    bands[a] = band
+    curves, widths, kinds = [curve, curve], [width, width], [kind, kind]
+    bands: list[tuple[np.ndarray, float] | None] = [None, None]
+    curves[b], widths[b], kinds[b], bands[a] = obs.seam_px, obs.gap_width_px, obs.end_kinds, band
     out = _locate(z, curves, widths, kinds, cam, clip=clip, bands=bands)
     out["other_view"] = True
     return out
