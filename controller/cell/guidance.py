@@ -45,6 +45,8 @@ F64 = NDArray[np.float64]
 #: also given ``params=`` (the view's :class:`DetectParams`, :func:`view_params`), with a nominal
 #: line ``hint=`` (:func:`nominal_hint`).
 Detector = Callable[..., Any]
+#: Per view: region of interest, detector parameters, nominal line px (:func:`search_args`).
+SearchArgs = tuple[list[Any], list[DetectParams | None], list[Any] | None]
 
 
 @dataclass(frozen=True)
@@ -194,8 +196,7 @@ def view_params(camera: CameraModel, T_base_cam: Pose, settings: GuidanceSetting
     return p
 
 
-def search_args(views: Sequence[ViewInput], settings: GuidanceSettings
-                ) -> tuple[list[Any], list[DetectParams | None], list[Any] | None]:
+def search_args(views: Sequence[ViewInput], settings: GuidanceSettings) -> SearchArgs:
     """Per view: region of interest, detector parameters and nominal line px for the search.
 
     The region is the nominal region's box, the parameters :func:`view_params`'s, the line
@@ -217,18 +218,18 @@ def search_args(views: Sequence[ViewInput], settings: GuidanceSettings
 
 
 def detect_views(views: Sequence[ViewInput], settings: GuidanceSettings,
-                 detector: Detector | None = None, outcomes: list[Any] | None = None
-                 ) -> list[Any]:
+                 detector: Detector | None = None, outcomes: list[Any] | None = None,
+                 args: SearchArgs | None = None) -> list[Any]:
     """The seam in each view (in view order), inside the nominal region's box when there is one.
 
     Two views at a time (:func:`detect_seams`), each with its own camera model and the pixel
     scales of its working distance (:func:`view_params`). Raises what the detector raises (seam
     not found, ambiguous seam), the message starting with the view's name; ``outcomes`` (if
-    given) then holds every view's detection or error, as :func:`detect_seams` fills it.
+    given) then holds every view's detection or error; ``args``: :func:`search_args`'s, if known.
     """
     from controller.vision.seam_views import detect_seams
 
-    rois, params, hints = search_args(views, settings)
+    rois, params, hints = args or search_args(views, settings)
     return detect_seams([v.image for v in views], camera=[v.camera for v in views], rois=rois,
                         detector=detector, names=[v.name for v in views], params=params,
                         hints=hints, outcomes=outcomes)
@@ -258,11 +259,12 @@ def locate_views(views: Sequence[ViewInput], settings: GuidanceSettings, *,
             note(view_layout_warning=warning)
     outcomes: list[Any] = []
     other: OtherViewSeam | None = None
+    args = search_args(views, settings)
     try:
-        detections: list[Any] = detect_views(views, settings, detector, outcomes)
+        detections: list[Any] = detect_views(views, settings, detector, outcomes, args)
     except SeamguideError as err:
         if detector is None and len(outcomes) == len(views):
-            other = _other_view(views, settings, outcomes)
+            other = _other_view(views, settings, outcomes, args)
         if other is None:
             if on_detections is not None and len(outcomes) == len(views):
                 on_detections(outcomes)
@@ -316,8 +318,8 @@ def locate_with(observations: list[ViewObservation], settings: GuidanceSettings)
                            settings.line_tolerance_mm))
 
 
-def _other_view(views: Sequence[ViewInput], settings: GuidanceSettings,
-                outcomes: list[Any]) -> OtherViewSeam | None:
+def _other_view(views: Sequence[ViewInput], settings: GuidanceSettings, outcomes: list[Any],
+                args: SearchArgs) -> OtherViewSeam | None:
     """The refused view's line whose ends meet the other view's seam, or None.
 
     Two views, one refused (seam not found, ambiguous), the other found:
@@ -330,7 +332,7 @@ def _other_view(views: Sequence[ViewInput], settings: GuidanceSettings,
             isinstance(d, SeamguideError) for i, d in enumerate(outcomes) if i != refused[0]):
         return None
     b = refused[0]
-    rois, params, hints = search_args(views, settings)
+    rois, params, hints = args
     lines = measured_lines(views[b].image, camera=views[b].camera, roi=rois[b], params=params[b],
                            hint=None if hints is None else hints[b])
     found = observation(views[1 - b], outcomes[1 - b])
