@@ -138,8 +138,9 @@ def seam_from_other_view(lines: Sequence[MeasuredLine], refused: ViewObservation
         seen = [e for e in ends if e["status"] == "seen"]
         if any(e["ray_gap_mm"] > END_RAY_GAP_MM for e in seen):
             continue
-        if sum(found.name in e["seen_by"] for e in seen) < n_joint or _cut_where_it_fades(seam, obs,
-                                                                                   line):
+        if sum(found.name in e["seen_by"] for e in seen) < n_joint:
+            continue
+        if _cut_where_it_fades(seam, obs, line):
             continue
         passing.append(OtherViewSeam(line, obs, seam, len(lines), found.name))
     return passing[0] if len(passing) == 1 else None
