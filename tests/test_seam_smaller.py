@@ -223,6 +223,21 @@ def test_two_readings_are_the_same_seam_only_with_the_same_ends() -> None:
     assert not same_seam(a, _det([(x, y + 6.0) for x, y in line]))  # beside it: 6 > 20 / 4
 
 
+def test_the_ends_of_a_wide_gap_agree_within_half_its_width() -> None:
+    # A 24 px gap leaving the image at the top at 45 deg: the readings' centrelines 2 px apart
+    # cross the border 10 px apart along it, more than the 8 px asked of a narrow gap's ends.
+    line = [(300.0 + t, t) for t in range(0, 801, 50)]
+    beside = [(x + 2.0 * np.sqrt(2.0), y) for x, y in line]
+    beside[0] = (line[0][0] + 10.0, 0.0)
+    kinds = ("image_border", "joint_end")
+    assert same_seam(_det(line, kinds, width=24.0), _det(beside, kinds, width=24.0))
+    # The same two readings of a 10 px gap: the ends 8 px apart at most.
+    assert not same_seam(_det(line, kinds, width=10.0), _det(beside, kinds, width=10.0))
+    # Nor half a wide gap's width more than that: an end read elsewhere.
+    beside[0] = (line[0][0] + 13.0, 0.0)
+    assert not same_seam(_det(line, kinds, width=24.0), _det(beside, kinds, width=24.0))
+
+
 def test_where_nothing_is_found_shrunk_by_3_two_other_scales_must_agree() -> None:
     # Wide medium tuning 10093 v0, 10219 v0, 10257 v1, hard 10051 v0 (close-ups): found shrunk
     # by 2, nothing found shrunk by 3 (the faint gap under the search's thresholds there), the

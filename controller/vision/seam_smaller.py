@@ -17,9 +17,12 @@ of those two is taken, :func:`one_of`), the same search runs on the image shrunk
    the shrunk one lost. A sharp image does (shrunk, a hairline gap beside a shadow or a cut face
    reads as one wide band whose middle is not the gap's): there the full-size refusal stands.
 2. **it holds at another scale**: the same search on the image shrunk by :data:`CONFIRM` finds
-   the same seam (the same end kinds, each end within :data:`END_AGREE_PX`, the centrelines
-   within :data:`CENTRE_AGREE` of the gap's width, median). A reading that moves with the scale
-   (an end read at a different corner, a band read on its other side) is not a measurement.
+   the same seam (the same end kinds, each end within :data:`END_AGREE_PX` or, for a gap wider
+   than twice that, :data:`END_AGREE_SHARE` of its width, the centrelines within
+   :data:`CENTRE_AGREE` of the gap's width, median). A reading that moves with the scale (an
+   end read at a different corner, a band read on its other side) is not a measurement. (Where
+   a gap 20-27 px wide leaves the image at 45-60 deg, its two readings cross the image border
+   8-12 px apart with centrelines 1-3 px apart: wide close-up tuning views refused at 8 px.)
    Where that search finds no seam at all (a faint gap drops under the search's thresholds at
    one scale: nothing read there moved), two of the searches shrunk by :data:`ALT_CONFIRM`
    (1.5, 2.5, 4) must find the same seam and none of them a different one.
@@ -55,6 +58,7 @@ SCALE = 2  # the image is searched again shrunk by this
 CONFIRM = 3  # and the seam found there must be found shrunk by this too
 MIN_BLUR_PX = 2.0  # full-size edge blur (sigma, px) from which shrinking by 2 loses nothing
 END_AGREE_PX = 8.0  # the two scales' ends agree within this (full-size px)
+END_AGREE_SHARE = 0.5  # or within this share of the gap's width, where that is more
 CENTRE_AGREE = 0.25  # and their centrelines within this share of the gap's width (median)
 _SIDE_PX = 8.0  # full-size profiles reach this far past the gap's edges
 ONE_OF_SHARE = 0.8  # one_of: share of the seam's points along the line
@@ -127,7 +131,8 @@ def same_seam(a: SeamDetection, b: SeamDetection) -> bool:
         eb, kb = eb[::-1], (kb[1], kb[0])
     if tuple(kb) != tuple(a.end_kinds):
         return False
-    if float(np.max(np.linalg.norm(eb - ea, axis=1))) > END_AGREE_PX:
+    if float(np.max(np.linalg.norm(eb - ea, axis=1))) > max(END_AGREE_PX,
+                                                            END_AGREE_SHARE * a.gap_width_px):
         return False
     return bool(np.median(_distances(a.points_px, b.points_px)) <= CENTRE_AGREE * a.gap_width_px)
 
