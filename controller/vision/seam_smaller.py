@@ -20,9 +20,10 @@ of those two is taken, :func:`one_of`), the same search runs on the image shrunk
    the same seam (the same end kinds, each end within :data:`END_AGREE_PX` or, for a gap wider
    than twice that, :data:`END_AGREE_SHARE` of its width, the centrelines within
    :data:`CENTRE_AGREE` of the gap's width, median). A reading that moves with the scale (an
-   end read at a different corner, a band read on its other side) is not a measurement. (Where
-   a gap 20-27 px wide leaves the image at 45-60 deg, its two readings cross the image border
-   8-12 px apart with centrelines 1-3 px apart: wide close-up tuning views refused at 8 px.)
+   end read at a different corner, a band read on its other side) is not a measurement. (Four
+   close-ups of the tuning part, gaps 20-27 px wide, were read at both scales with centrelines
+   0.7-2.6 px apart and one end 8-12 px apart: three where the seam crosses the image border at
+   45-60 deg, one at a sheet border; refused while 8 px was asked of every gap.)
    Where that search finds no seam at all (a faint gap drops under the search's thresholds at
    one scale: nothing read there moved), two of the searches shrunk by :data:`ALT_CONFIRM`
    (1.5, 2.5, 4) must find the same seam and none of them a different one.
