@@ -132,8 +132,8 @@ def same_seam(a: SeamDetection, b: SeamDetection) -> bool:
         eb, kb = eb[::-1], (kb[1], kb[0])
     if tuple(kb) != tuple(a.end_kinds):
         return False
-    if float(np.max(np.linalg.norm(eb - ea, axis=1))) > max(END_AGREE_PX,
-                                                            END_AGREE_SHARE * a.gap_width_px):
+    end_tol = max(END_AGREE_PX, END_AGREE_SHARE * a.gap_width_px)
+    if float(np.max(np.linalg.norm(eb - ea, axis=1))) > end_tol:
         return False
     return bool(np.median(_distances(a.points_px, b.points_px)) <= CENTRE_AGREE * a.gap_width_px)
 
